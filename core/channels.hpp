@@ -1,0 +1,28 @@
+#pragma once
+// Default channel names (docs/channels.md). Every program can rename any of them with
+// --channel KIND=NAME.
+#include <map>
+#include <string>
+
+namespace ips::channel {
+
+inline constexpr const char* kUwbRange = "UWB_RANGE";
+inline constexpr const char* kUwbRx = "UWB_RX";
+inline constexpr const char* kBleAoa = "BLE_AOA";
+inline constexpr const char* kImu = "IMU";
+inline constexpr const char* kBaro = "BARO";
+inline constexpr const char* kInsModule = "INS_MODULE";
+inline constexpr const char* kSite = "SITE";
+inline constexpr const char* kHealth = "HEALTH";
+inline constexpr const char* kTruth = "TRUTH";
+inline constexpr const char* kPoseUwb = "POSE_UWB";
+inline constexpr const char* kPoseTdoa = "POSE_TDOA";
+inline constexpr const char* kPoseAoa = "POSE_AOA";
+inline constexpr const char* kPosePdr = "POSE_PDR";
+inline constexpr const char* kPoseIns = "POSE_INS";
+inline constexpr const char* kStep = "STEP";
+inline constexpr const char* kAltitude = "ALTITUDE";
+inline constexpr const char* kClock = "CLOCK";
+inline constexpr const char* kPoseFused = "POSE_FUSED";
+
+}  // namespace ips::channel

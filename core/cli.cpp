@@ -1,0 +1,78 @@
+#include "core/cli.hpp"
+
+#include <cstdio>
+#include <iostream>
+
+#include "core/logging.hpp"
+
+namespace ips {
+
+std::string CommonOptions::channel(const std::string& kind) const {
+  std::string result = kind;
+  for (const auto& o : channel_overrides) {
+    auto eq = o.find('=');
+    if (eq != std::string::npos && o.substr(0, eq) == kind) result = o.substr(eq + 1);
+  }
+  return result;
+}
+
+void add_common_options(CLI::App& app, CommonOptions& opts, CommonFlags flags) {
+  if (flags.lcm) {
+    app.add_option("--lcm-url", opts.lcm_url,
+                   "LCM URL, e.g. udpm://239.255.76.67:7667?ttl=0 (default: LCM_DEFAULT_URL or "
+                   "LCM's own default)");
+  }
+  if (flags.site) {
+    app.add_option("--site", opts.site_path,
+                   "site file (YAML); without it the site is taken from the first SITE message");
+  }
+  if (flags.channels) {
+    app.add_option("--channel", opts.channel_overrides,
+                   "rename a channel, KIND=NAME (e.g. --channel POSE_UWB=POSE_UWB_TEST); "
+                   "repeatable")
+        ->type_name("KIND=NAME");
+  }
+  app.add_option("--log-level", opts.log_level, "trace, debug, info, warn, error or off")
+      ->capture_default_str();
+}
+
+void print_fatal(const std::string& program, const std::string& what) {
+  std::fprintf(stderr, "%s: error: %s\n", program.c_str(), what.c_str());
+  std::fflush(stderr);
+}
+
+bool parse_command_line(CLI::App& app, const CommonOptions& opts, int argc, char** argv,
+                        int& exit_code) {
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::CallForHelp&) {
+    std::cout << app.help();
+    exit_code = 0;
+    return false;
+  } catch (const CLI::CallForAllHelp&) {
+    std::cout << app.help("", CLI::AppFormatMode::All);
+    exit_code = 0;
+    return false;
+  } catch (const CLI::ParseError& e) {
+    print_fatal(app.get_name(), std::string(e.what()) + " (see --help)");
+    exit_code = 2;
+    return false;
+  }
+  if (!set_log_level(opts.log_level)) {
+    print_fatal(app.get_name(), "--log-level: unknown level '" + opts.log_level + "'");
+    exit_code = 2;
+    return false;
+  }
+  for (const auto& o : opts.channel_overrides) {
+    auto eq = o.find('=');
+    if (eq == std::string::npos || eq == 0 || eq + 1 == o.size()) {
+      print_fatal(app.get_name(), "--channel: expected KIND=NAME, got '" + o + "'");
+      exit_code = 2;
+      return false;
+    }
+  }
+  exit_code = 0;
+  return true;
+}
+
+}  // namespace ips

@@ -1,0 +1,39 @@
+#pragma once
+// The command line every program shares: --lcm-url, --site, --channel KIND=NAME, --log-level,
+// --help (CLI11). The same flag means the same thing in every program.
+#include <CLI/CLI.hpp>
+#include <map>
+#include <string>
+#include <vector>
+
+namespace ips {
+
+struct CommonOptions {
+  std::string lcm_url;    // empty: LCM's default or LCM_DEFAULT_URL
+  std::string site_path;  // empty: wait for the first SITE message
+  std::string log_level = "info";
+  std::vector<std::string> channel_overrides;  // KIND=NAME
+
+  // The channel to use for a kind (e.g. "UWB_RANGE"), after --channel overrides.
+  std::string channel(const std::string& kind) const;
+};
+
+// Which of the common options a program offers.
+struct CommonFlags {
+  bool lcm = true;
+  bool site = true;
+  bool channels = true;
+};
+
+void add_common_options(CLI::App& app, CommonOptions& opts, CommonFlags flags = {});
+
+// Parses argv; on --help prints it and returns 0 in `exit_code`; on an error prints one line
+// "<program>: error: <what>" and returns 2 in `exit_code`. Returns true when the program should
+// go on. Also applies --log-level and checks --channel syntax.
+bool parse_command_line(CLI::App& app, const CommonOptions& opts, int argc, char** argv,
+                        int& exit_code);
+
+// Prints "<program>: error: <what>" on stderr (one line, for start-up failures).
+void print_fatal(const std::string& program, const std::string& what);
+
+}  // namespace ips

@@ -1,0 +1,138 @@
+#include "core/node.hpp"
+
+#include <poll.h>
+#include <signal.h>
+#include <sys/signalfd.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+#include <spdlog/spdlog.h>
+
+#include "core/channels.hpp"
+#include "core/lcm_url.hpp"
+
+namespace ips {
+
+namespace {
+std::string host_name() {
+  char buf[256] = {0};
+  if (gethostname(buf, sizeof buf - 1) != 0) return "unknown";
+  return buf;
+}
+}  // namespace
+
+Node::Node(std::string name, const CommonOptions& opts)
+    : name_(std::move(name)),
+      opts_(opts),
+      lcm_(open_lcm(opts.lcm_url)),
+      health_channel_(opts.channel(channel::kHealth)),
+      host_(host_name()),
+      start_utime_(wall_utime_now()) {
+  // SIGINT/SIGTERM arrive through a signalfd so that the loop ends cleanly between messages.
+  sigset_t mask;
+  sigemptyset(&mask);
+  sigaddset(&mask, SIGINT);
+  sigaddset(&mask, SIGTERM);
+  sigprocmask(SIG_BLOCK, &mask, nullptr);
+  signal_fd_ = signalfd(-1, &mask, SFD_CLOEXEC | SFD_NONBLOCK);
+  // A closed pipe (e.g. `| head`) must not kill the process mid-write.
+  signal(SIGPIPE, SIG_IGN);
+  add_timer(1.0, [this] { publish_health(); });
+}
+
+Node::~Node() {
+  if (signal_fd_ >= 0) close(signal_fd_);
+}
+
+void Node::subscribe_raw(const std::string& channel, RawHandler handler) {
+  // Every message that reaches us is counted, decodable or not.
+  handlers_.push_back([this, h = std::move(handler)](const lcm::ReceiveBuffer* rbuf,
+                                                     const std::string& chan) {
+    ++counters_.msgs_in;
+    h(rbuf, chan);
+  });
+  lcm_->subscribeFunction(
+      channel,
+      +[](const lcm::ReceiveBuffer* rbuf, const std::string& chan, RawHandler* h) {
+        (*h)(rbuf, chan);
+      },
+      &handlers_.back());
+}
+
+void Node::add_timer(double period_s, std::function<void()> fn) {
+  auto period = std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+      std::chrono::duration<double>(period_s));
+  timers_.push_back({period, std::chrono::steady_clock::now() + period, std::move(fn)});
+}
+
+void Node::dispatch_timers() {
+  auto now = std::chrono::steady_clock::now();
+  for (auto& t : timers_) {
+    if (now >= t.next) {
+      t.fn();
+      t.next += t.period;
+      if (t.next < now) t.next = now + t.period;  // skip missed ticks rather than burst
+    }
+  }
+}
+
+bool Node::spin_once(int timeout_ms) {
+  if (stopping_) return false;
+  auto now = std::chrono::steady_clock::now();
+  for (const auto& t : timers_) {
+    // Round up: waking before the deadline would spin.
+    auto until = std::chrono::ceil<std::chrono::milliseconds>(t.next - now).count();
+    if (until < timeout_ms) timeout_ms = static_cast<int>(std::max<int64_t>(0, until));
+  }
+  pollfd fds[2] = {{lcm_->getFileno(), POLLIN, 0}, {signal_fd_, POLLIN, 0}};
+  int n = poll(fds, 2, timeout_ms);
+  if (n < 0 && errno != EINTR) {
+    report_error(std::string("poll: ") + std::strerror(errno));
+  }
+  if (n > 0 && (fds[1].revents & POLLIN)) {
+    signalfd_siginfo si;
+    if (read(signal_fd_, &si, sizeof si) == static_cast<ssize_t>(sizeof si)) {
+      spdlog::info("{}: signal {} received, stopping", name_, si.ssi_signo);
+    }
+    stopping_ = true;
+    return false;
+  }
+  if (n > 0 && (fds[0].revents & POLLIN)) {
+    if (lcm_->handle() != 0) report_error("lcm handle() failed");
+  }
+  dispatch_timers();
+  return !stopping_;
+}
+
+int Node::run() {
+  publish_health();
+  while (spin_once(1000)) {
+  }
+  publish_health();
+  return 0;
+}
+
+void Node::report_error(const std::string& text) {
+  last_error_ = text;
+  if (state_ == health_t::STATE_OK) state_ = health_t::STATE_DEGRADED;
+  if (error_log_limit_.allow(wall_utime_now())) spdlog::warn("{}: {}", name_, text);
+}
+
+void Node::publish_health() {
+  health_t h;
+  h.utime = wall_utime_now();
+  h.source = name_;
+  h.host = host_;
+  h.pid = static_cast<int32_t>(getpid());
+  h.state = state_;
+  h.msgs_in = counters_.msgs_in;
+  h.msgs_out = counters_.msgs_out;
+  h.parse_errors = counters_.parse_errors;
+  h.drops = counters_.drops;
+  h.last_error = last_error_;
+  h.uptime_us = h.utime - start_utime_;
+  lcm_->publish(health_channel_, &h);
+}
+
+}  // namespace ips

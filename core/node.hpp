@@ -1,0 +1,110 @@
+#pragma once
+// The node runtime every process is built on: owns the LCM instance, offers typed subscribe and
+// publish with message counters, runs one poll loop over the LCM fd, timers and signals, ends
+// cleanly (status 0) on SIGINT/SIGTERM, and publishes health_t on HEALTH at 1 Hz.
+#include <chrono>
+#include <cstdint>
+#include <functional>
+#include <ips/health_t.hpp>
+#include <lcm/lcm-cpp.hpp>
+#include <list>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "core/cli.hpp"
+#include "core/logging.hpp"
+#include "core/time.hpp"
+
+namespace ips {
+
+struct NodeCounters {
+  int64_t msgs_in = 0;
+  int64_t msgs_out = 0;
+  int64_t parse_errors = 0;
+  int64_t drops = 0;
+};
+
+class Node {
+ public:
+  // Opens LCM from opts.lcm_url; throws LcmOpenError (one clear line) when it cannot.
+  Node(std::string name, const CommonOptions& opts);
+  ~Node();
+  Node(const Node&) = delete;
+  Node& operator=(const Node&) = delete;
+
+  const std::string& name() const { return name_; }
+  const CommonOptions& options() const { return opts_; }
+  lcm::LCM& lcm() { return *lcm_; }
+
+  // Subscribes to `channel` with messages decoded as Msg. A message that does not decode as Msg
+  // (wrong type or corrupt) is counted as a parse error and logged at a rate limit.
+  template <class Msg>
+  void subscribe(const std::string& channel,
+                 std::function<void(const Msg&, const std::string& channel)> handler);
+
+  template <class Msg>
+  void publish(const std::string& channel, const Msg& msg) {
+    lcm_->publish(channel, &msg);
+    ++counters_.msgs_out;
+  }
+
+  // Calls `fn` every `period_s` seconds of monotonic time (first call one period from now).
+  void add_timer(double period_s, std::function<void()> fn);
+
+  // Runs the loop until SIGINT/SIGTERM or stop(). Returns the process exit status (0).
+  int run();
+  // Handles what is pending now, waiting at most `timeout_ms`; false once stopped.
+  bool spin_once(int timeout_ms);
+  void stop() { stopping_ = true; }
+  bool stopping() const { return stopping_; }
+
+  NodeCounters& counters() { return counters_; }
+  // Reports an error in health_t (state degraded) and logs it at a rate limit.
+  void report_error(const std::string& text);
+  void set_state(int8_t state) { state_ = state; }
+  void publish_health();
+
+ private:
+  struct Timer {
+    std::chrono::steady_clock::duration period;
+    std::chrono::steady_clock::time_point next;
+    std::function<void()> fn;
+  };
+  using RawHandler = std::function<void(const lcm::ReceiveBuffer*, const std::string&)>;
+  void subscribe_raw(const std::string& channel, RawHandler handler);
+  void dispatch_timers();
+
+  std::string name_;
+  CommonOptions opts_;
+  std::unique_ptr<lcm::LCM> lcm_;
+  std::list<RawHandler> handlers_;  // stable addresses: LCM keeps a pointer to each
+  std::vector<Timer> timers_;
+  NodeCounters counters_;
+  int signal_fd_ = -1;
+  bool stopping_ = false;
+  int8_t state_ = health_t::STATE_OK;
+  std::string last_error_;
+  std::string health_channel_;
+  std::string host_;
+  utime_t start_utime_;
+  RateLimiter error_log_limit_;
+};
+
+template <class Msg>
+void Node::subscribe(const std::string& channel,
+                     std::function<void(const Msg&, const std::string& channel)> handler) {
+  subscribe_raw(channel, [this, handler = std::move(handler)](const lcm::ReceiveBuffer* rbuf,
+                                                              const std::string& chan) {
+    Msg msg;
+    if (rbuf->data_size > INT32_MAX ||
+        msg.decode(rbuf->data, 0, static_cast<int>(rbuf->data_size)) < 0) {
+      ++counters_.parse_errors;
+      report_error("channel " + chan + ": message does not decode as " + Msg::getTypeName());
+      return;
+    }
+    handler(msg, chan);
+  });
+}
+
+}  // namespace ips

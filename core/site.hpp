@@ -1,0 +1,61 @@
+#pragma once
+// The site: anchors, reference barometers, tags and per-estimator parameters, loaded from a YAML
+// site file (docs/site-file.md) or taken from a SITE message.
+#include <Eigen/Core>
+#include <functional>
+#include <ips/site_t.hpp>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "core/time.hpp"
+#include "core/yaml_fields.hpp"
+
+namespace ips {
+
+using SiteError = ConfigError;
+
+struct Anchor {
+  std::string id;
+  std::string kind = "uwb";  // uwb, uwb_tdoa, ble_aoa
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();
+  Eigen::Vector3d orientation_rad = Eigen::Vector3d::Zero();  // roll, pitch, yaw
+  bool enabled = true;
+};
+
+struct BaroStation {
+  std::string id;
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();
+};
+
+struct Tag {
+  std::string id;
+  double height_m = std::numeric_limits<double>::quiet_NaN();  // NaN: estimate height (3D)
+};
+
+struct Site {
+  std::string name;
+  std::vector<Anchor> anchors;
+  std::vector<BaroStation> baro_stations;
+  std::vector<Tag> tags;
+  std::string yaml_text;  // the site as YAML, carried in site_t so logs are self-contained
+  std::string origin;     // file name (or "SITE message") for error messages
+  // The `estimators:` map, with its marks in the original text for error messages.
+  YamlField estimators{YAML::Node(YAML::NodeType::Undefined), "", "estimators"};
+
+  const Anchor* find_anchor(const std::string& id) const;
+  const Tag* find_tag(const std::string& id) const;
+  // The `estimators.<name>` section (may be undefined: every parameter has a default).
+  YamlField estimator_params(const std::string& estimator) const;
+};
+
+// Parses a site from a YAML map (a site file's root, or a scenario's `site:`).
+Site parse_site(const YamlField& root);
+Site parse_site_text(const std::string& yaml_text, const std::string& origin);
+Site load_site_file(const std::string& path);
+
+site_t site_to_msg(const Site& site, utime_t utime, const std::string& source);
+// Throws SiteError when the message's site_yaml does not parse.
+Site site_from_msg(const site_t& msg);
+
+}  // namespace ips

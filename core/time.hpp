@@ -1,0 +1,21 @@
+#pragma once
+// Microsecond timestamps (utime) as carried by every message.
+#include <chrono>
+#include <cstdint>
+
+namespace ips {
+
+using utime_t = int64_t;
+
+constexpr double utime_to_s(utime_t us) { return static_cast<double>(us) * 1e-6; }
+constexpr utime_t s_to_utime(double s) { return static_cast<utime_t>(s * 1e6 + (s >= 0 ? 0.5 : -0.5)); }
+
+// Host wall clock in us since the Unix epoch. Only drivers and the node runtime call this;
+// estimators run on message time.
+inline utime_t wall_utime_now() {
+  return std::chrono::duration_cast<std::chrono::microseconds>(
+             std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+
+}  // namespace ips

@@ -1,0 +1,63 @@
+#pragma once
+// Reading typed fields out of YAML with errors that name the file, line, field and reason:
+// "lab.yaml:12: anchors[2].position: expected a list of 3 numbers".
+#include <yaml-cpp/yaml.h>
+
+#include <Eigen/Core>
+#include <optional>
+#include <stdexcept>
+#include <string>
+
+namespace ips {
+
+struct ConfigError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+// A YAML node with the place it came from, for error messages.
+class YamlField {
+ public:
+  YamlField(YAML::Node node, std::string origin, std::string path)
+      : node_(std::move(node)), origin_(std::move(origin)), path_(std::move(path)) {}
+
+  const YAML::Node& node() const { return node_; }
+  const std::string& path() const { return path_; }
+  const std::string& origin() const { return origin_; }
+  bool defined() const { return node_.IsDefined() && !node_.IsNull(); }
+
+  YamlField operator[](const std::string& key) const;
+  YamlField operator[](size_t index) const;
+  size_t size() const { return node_.IsSequence() ? node_.size() : 0; }
+  bool is_map() const { return node_.IsMap(); }
+  bool is_sequence() const { return node_.IsSequence(); }
+
+  [[noreturn]] void fail(const std::string& reason) const;
+
+  double as_double() const;
+  int64_t as_int() const;
+  bool as_bool() const;
+  std::string as_string() const;
+  Eigen::Vector3d as_vec3() const;           // [x, y, z]
+  Eigen::Vector2d as_vec2() const;           // [x, y]
+
+  double get_double(const std::string& key, double fallback) const;
+  int64_t get_int(const std::string& key, int64_t fallback) const;
+  bool get_bool(const std::string& key, bool fallback) const;
+  std::string get_string(const std::string& key, const std::string& fallback) const;
+  // Fails with "field is required" when absent.
+  YamlField required(const std::string& key) const;
+
+ private:
+  YAML::Node node_;
+  std::string origin_;
+  std::string path_;
+};
+
+// Parses YAML text; a syntax error becomes ConfigError "origin:line:col: reason".
+YamlField parse_yaml_text(const std::string& text, const std::string& origin);
+// Reads a whole file; failure gives ConfigError "path: cannot read: reason".
+std::string read_text_file(const std::string& path);
+// Reads and parses a YAML file; unreadable files give ConfigError "path: cannot read: reason".
+YamlField load_yaml_file(const std::string& path);
+
+}  // namespace ips

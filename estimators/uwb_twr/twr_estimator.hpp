@@ -1,0 +1,97 @@
+#pragma once
+// Two-way-ranging tag tracker: per-epoch Levenberg-Marquardt multilateration to initialise,
+// then a constant-velocity EKF per tag (2D with the tag height from the site, or 3D) with
+// sequential range updates and Mahalanobis gating. Positive outliers (NLOS: the direct path is
+// blocked, so ranges are only ever too long) are gated tighter than negative ones.
+// Pure: takes messages, emits pose_t through a callback, never reads a clock.
+#include <deque>
+#include <functional>
+#include <ips/pose_t.hpp>
+#include <ips/uwb_range_t.hpp>
+#include <map>
+#include <optional>
+#include <string>
+
+#include "core/site.hpp"
+#include "estimators/uwb_twr/cv_filter.hpp"
+
+namespace ips::uwb_twr {
+
+struct TwrParams {
+  bool force_3d = false;          // estimate height even when the site gives one
+  double range_sigma_m = 0.10;    // measurement noise
+  double accel_psd = 0.5;         // process noise, (m/s^2)^2/Hz
+  double gate_sigma = 4.0;        // reject |innovation| > gate_sigma * sqrt(S) (negative side)
+  double nlos_gate_sigma = 2.5;   // the same for positive innovations (ranges too long)
+  double epoch_window_s = 0.2;    // ranges this close in time form one epoch for initialisation
+  double init_velocity_sigma_mps = 1.0;
+  int reinit_after_rejections = 12;  // consecutive gated ranges that trigger re-initialisation
+  double max_coast_s = 3.0;       // no accepted range for this long: re-initialise
+  double publish_period_s = 0.1;  // at most one pose per tag per period
+  double reorder_tolerance_s = 0.05;  // older ranges than this behind the filter are dropped
+  double max_range_m = 300.0;
+};
+
+// Reads `estimators.uwb_twr` of the site; throws ConfigError on a bad value.
+TwrParams parse_twr_params(const YamlField& section);
+
+struct TwrStats {
+  int64_t ranges_in = 0;
+  int64_t ranges_used = 0;
+  int64_t rejected_gate = 0;
+  int64_t dropped_unknown_anchor = 0;  // anchor not in the site or disabled
+  int64_t dropped_invalid = 0;         // NaN, negative or absurd range
+  int64_t dropped_late = 0;            // older than reorder_tolerance_s
+  int64_t initialisations = 0;
+  int64_t poses_out = 0;
+};
+
+class TwrEstimator {
+ public:
+  using PoseSink = std::function<void(const pose_t&)>;
+  explicit TwrEstimator(PoseSink sink, std::string source_name = "uwb_twr");
+
+  // Takes the anchors, tag heights and parameters; resets all tracks.
+  void set_site(const Site& site);
+  bool has_site() const { return site_.has_value(); }
+  void on_range(const uwb_range_t& msg);
+  const TwrStats& stats() const { return stats_; }
+  const TwrParams& params() const { return params_; }
+
+ private:
+  struct Epoch {
+    utime_t utime;
+    std::string anchor_id;
+    double range_m;
+  };
+  struct Track {
+    bool initialised = false;
+    bool planar = true;  // 2D with known height
+    double height_m = 0;
+    CvFilter<2> f2;
+    CvFilter<3> f3;
+    utime_t filter_utime = 0;
+    utime_t last_accept_utime = 0;
+    utime_t last_publish_utime = 0;
+    int consecutive_rejections = 0;
+    int used_since_publish = 0;
+    double sq_innov_since_publish = 0;
+    bool reinitialised = false;
+    std::deque<Epoch> recent;  // for (re)initialisation
+  };
+
+  void try_initialise(Track& t, utime_t now);
+  template <int D>
+  void update(Track& t, CvFilter<D>& f, const Eigen::Vector3d& anchor, const uwb_range_t& m);
+  template <int D>
+  void publish(Track& t, const CvFilter<D>& f, const std::string& tag_id, utime_t now);
+
+  PoseSink sink_;
+  std::string source_;
+  std::optional<Site> site_;
+  TwrParams params_;
+  std::map<std::string, Track> tracks_;
+  TwrStats stats_;
+};
+
+}  // namespace ips::uwb_twr

@@ -1,0 +1,58 @@
+// ips-bus-check: publishes a health_t on a private channel and waits for it to come back, to
+// tell whether this machine delivers LCM multicast to itself (it does not without a multicast
+// route; docs/networking.md).
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdio>
+
+#include "core/cli.hpp"
+#include "core/lcm_url.hpp"
+#include "core/node.hpp"
+
+int main(int argc, char** argv) {
+  CLI::App app{"ips-bus-check: checks that LCM messages published on this machine are received "
+               "on this machine. Exit status 0 when they are, 1 when not.",
+               "ips-bus-check"};
+  ips::CommonOptions opts;
+  ips::add_common_options(app, opts, {.lcm = true, .site = false, .channels = false});
+  double timeout_s = 2.0;
+  app.add_option("--timeout", timeout_s, "seconds to wait")->capture_default_str();
+  int rc = 0;
+  if (!ips::parse_command_line(app, opts, argc, argv, rc)) return rc;
+  try {
+    ips::Node node("ips-bus-check", opts);
+    const std::string channel = "IPS_BUS_CHECK_" + std::to_string(getpid());
+    bool received = false;
+    node.subscribe<ips::health_t>(channel,
+                                  [&](const ips::health_t&, const std::string&) { received = true; });
+    ips::health_t probe{};
+    probe.utime = ips::wall_utime_now();
+    probe.source = "ips-bus-check";
+    const auto deadline = std::chrono::steady_clock::now() +
+                          std::chrono::milliseconds(static_cast<int64_t>(timeout_s * 1000));
+    auto next_send = std::chrono::steady_clock::now();
+    while (!received && std::chrono::steady_clock::now() < deadline) {
+      if (std::chrono::steady_clock::now() >= next_send) {
+        node.publish(channel, probe);
+        next_send += std::chrono::milliseconds(200);
+      }
+      if (!node.spin_once(50)) break;
+    }
+    if (received) {
+      std::printf("ips-bus-check: LCM traffic on %s reaches this machine\n",
+                  ips::effective_lcm_url(opts.lcm_url).c_str());
+      return 0;
+    }
+    std::fprintf(stderr,
+                 "ips-bus-check: no LCM message came back within %.1f s on %s. This machine does "
+                 "not deliver multicast to itself; add a route as root: "
+                 "`ip link set lo multicast on && ip route add 224.0.0.0/4 dev lo` "
+                 "(see docs/networking.md)\n",
+                 timeout_s, ips::effective_lcm_url(opts.lcm_url).c_str());
+    return 1;
+  } catch (const ips::LcmOpenError& e) {
+    ips::print_fatal("ips-bus-check", e.what());
+    return 1;
+  }
+}

@@ -1,0 +1,96 @@
+#include "loggers/eval/evaluation.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace ips::eval {
+
+double percentile(std::vector<double>& v, double p) {
+  if (v.empty()) return std::numeric_limits<double>::quiet_NaN();
+  std::sort(v.begin(), v.end());
+  const double pos = std::clamp(p, 0.0, 100.0) / 100.0 * static_cast<double>(v.size() - 1);
+  const size_t lo = static_cast<size_t>(std::floor(pos));
+  const size_t hi = std::min(lo + 1, v.size() - 1);
+  return v[lo] + (pos - static_cast<double>(lo)) * (v[hi] - v[lo]);
+}
+
+void Evaluator::add_truth(const pose_t& m) {
+  // Kept sorted by time; a log delivers truth in order, so this is almost always an append.
+  auto& s = truth_[m.tag_id];
+  const Sample sample{m.utime, m.position[0], m.position[1], m.position[2]};
+  auto pos = std::upper_bound(s.begin(), s.end(), m.utime,
+                              [](utime_t u, const Sample& a) { return u < a.utime; });
+  s.insert(pos, sample);
+}
+
+void Evaluator::add_estimate(const std::string& channel, const pose_t& m) {
+  estimates_[{channel, m.tag_id}].push_back({m.utime, m.position[0], m.position[1], m.position[2]});
+}
+
+bool Evaluator::truth_at(const std::string& tag, utime_t t, double& x, double& y,
+                         double& z) const {
+  auto it = truth_.find(tag);
+  if (it == truth_.end() || it->second.empty()) return false;
+  const auto& s = it->second;
+  auto hi = std::lower_bound(s.begin(), s.end(), t,
+                             [](const Sample& a, utime_t u) { return a.utime < u; });
+  if (hi != s.end() && hi->utime == t) {
+    x = hi->x, y = hi->y, z = hi->z;
+    return true;
+  }
+  if (hi == s.begin() || hi == s.end()) return false;
+  auto lo = hi - 1;
+  if (hi->utime - lo->utime > max_gap_us_) return false;
+  const double f = static_cast<double>(t - lo->utime) / static_cast<double>(hi->utime - lo->utime);
+  x = lo->x + f * (hi->x - lo->x);
+  y = lo->y + f * (hi->y - lo->y);
+  z = lo->z + f * (hi->z - lo->z);
+  return true;
+}
+
+std::vector<ErrorRow> Evaluator::rows() const {
+  std::vector<ErrorRow> rows;
+  for (const auto& [key, est] : estimates_) {
+    ErrorRow row;
+    row.channel = key.first;
+    row.tag = key.second;
+    std::vector<double> h;
+    double sum = 0, sum_sq = 0, sum_sq_v = 0;
+    for (const auto& e : est) {
+      double x, y, z;
+      if (!truth_at(row.tag, e.utime, x, y, z)) continue;
+      const double eh = std::hypot(e.x - x, e.y - y);
+      const double ev = e.z - z;
+      if (!std::isfinite(eh)) continue;
+      h.push_back(eh);
+      sum += eh;
+      sum_sq += eh * eh;
+      sum_sq_v += std::isfinite(ev) ? ev * ev : 0.0;
+    }
+    row.count = h.size();
+    if (row.count > 0) {
+      const double n = static_cast<double>(row.count);
+      row.mean_h = sum / n;
+      row.rmse_h = std::sqrt(sum_sq / n);
+      row.rmse_v = std::sqrt(sum_sq_v / n);
+      row.median_h = percentile(h, 50);
+      row.p95_h = percentile(h, 95);
+      row.max_h = h.back();
+    }
+    rows.push_back(row);
+  }
+  return rows;
+}
+
+size_t Evaluator::unmatched() const {
+  size_t n = 0;
+  for (const auto& [key, est] : estimates_)
+    for (const auto& e : est) {
+      double x, y, z;
+      if (!truth_at(key.second, e.utime, x, y, z)) ++n;
+    }
+  return n;
+}
+
+}  // namespace ips::eval

@@ -1,0 +1,50 @@
+#pragma once
+// Scores estimates against ground truth: for every estimate channel and tag, the horizontal error
+// to TRUTH linearly interpolated at the estimate's utime (count, mean, RMSE, median, 95th
+// percentile, max) and the RMSE of the vertical error. Pure: fed messages, returns numbers.
+#include <ips/pose_t.hpp>
+#include <map>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "core/time.hpp"
+
+namespace ips::eval {
+
+struct ErrorRow {
+  std::string channel;
+  std::string tag;
+  size_t count = 0;
+  double mean_h = 0, rmse_h = 0, median_h = 0, p95_h = 0, max_h = 0, rmse_v = 0;
+};
+
+// Percentile p in [0, 100] of `values` with linear interpolation between order statistics
+// (numpy's default). `values` is sorted in place. NaN for an empty set.
+double percentile(std::vector<double>& values, double p);
+
+class Evaluator {
+ public:
+  // Truth further than this from an estimate's time on both sides is not interpolated across.
+  explicit Evaluator(double max_truth_gap_s = 1.0) : max_gap_us_(s_to_utime(max_truth_gap_s)) {}
+
+  void add_truth(const pose_t& truth);
+  void add_estimate(const std::string& channel, const pose_t& estimate);
+  // Rows sorted by channel then tag.
+  std::vector<ErrorRow> rows() const;
+  // Estimates without truth around them (before the first, after the last, or across a gap).
+  size_t unmatched() const;
+
+ private:
+  struct Sample {
+    utime_t utime;
+    double x, y, z;
+  };
+  bool truth_at(const std::string& tag, utime_t t, double& x, double& y, double& z) const;
+
+  utime_t max_gap_us_;
+  std::map<std::string, std::vector<Sample>> truth_;  // per tag
+  std::map<std::pair<std::string, std::string>, std::vector<Sample>> estimates_;
+};
+
+}  // namespace ips::eval

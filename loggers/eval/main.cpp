@@ -1,0 +1,125 @@
+// ips-eval: reads an LCM log and scores every pose channel against TRUTH, per channel and tag.
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <ips/pose_t.hpp>
+#include <lcm/lcm-cpp.hpp>
+#include <set>
+
+#include "core/channels.hpp"
+#include "core/cli.hpp"
+#include "loggers/eval/evaluation.hpp"
+
+namespace {
+
+void print_json_number(double v) {
+  if (std::isfinite(v))
+    std::printf("%.6f", v);
+  else
+    std::printf("null");
+}
+
+// Channel and tag names came off the wire: escape them for JSON.
+std::string json_string(const std::string& s) {
+  std::string out = "\"";
+  for (unsigned char c : s) {
+    if (c == '"' || c == '\\') {
+      out += '\\';
+      out += static_cast<char>(c);
+    } else if (c < 0x20 || c == 0x7f) {
+      char buf[8];
+      std::snprintf(buf, sizeof buf, "\\u%04x", c);
+      out += buf;
+    } else {
+      out += static_cast<char>(c);
+    }
+  }
+  return out + "\"";
+}
+
+// For the terminal table: printable ASCII only.
+std::string printable(const std::string& s) {
+  std::string out;
+  for (unsigned char c : s) out += (c >= 0x20 && c < 0x7f) ? static_cast<char>(c) : '?';
+  return out;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"ips-eval: scores every pose channel of an LCM log against TRUTH (horizontal error "
+               "count, mean, RMSE, median, 95th percentile, max; vertical RMSE).",
+               "ips-eval"};
+  ips::CommonOptions opts;
+  ips::add_common_options(app, opts, {.lcm = false, .site = false, .channels = true});
+  std::string log_path;
+  bool json = false;
+  app.add_option("LOG", log_path, "LCM log file")->required();
+  app.add_flag("--json", json, "print {\"rows\": [...]} instead of a table");
+  int rc = 0;
+  if (!ips::parse_command_line(app, opts, argc, argv, rc)) return rc;
+
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(log_path, ec)) {
+    ips::print_fatal("ips-eval", "cannot read log '" + log_path + "': no such file");
+    return 2;
+  }
+  lcm::LogFile log(log_path, "r");
+  if (!log.good()) {
+    ips::print_fatal("ips-eval", "cannot open log '" + log_path + "'");
+    return 2;
+  }
+  const std::string truth_channel = opts.channel(ips::channel::kTruth);
+  ips::eval::Evaluator ev;
+  int64_t events = 0, poses = 0, truth = 0;
+  std::set<std::string> skipped_channels;
+  while (const lcm::LogEvent* e = log.readNextEvent()) {
+    ++events;
+    ips::pose_t m;
+    // Only pose_t decodes here: the fingerprint check rejects every other type.
+    if (m.decode(e->data, 0, e->datalen) < 0) {
+      skipped_channels.insert(e->channel);
+      continue;
+    }
+    if (e->channel == truth_channel) {
+      ev.add_truth(m);
+      ++truth;
+    } else {
+      ev.add_estimate(e->channel, m);
+      ++poses;
+    }
+  }
+  const auto rows = ev.rows();
+  if (json) {
+    std::printf("{\"rows\": [");
+    for (size_t i = 0; i < rows.size(); ++i) {
+      const auto& r = rows[i];
+      std::printf("%s{\"channel\": %s, \"tag\": %s, \"count\": %zu", i ? ", " : "",
+                  json_string(r.channel).c_str(), json_string(r.tag).c_str(), r.count);
+      const std::pair<const char*, double> fields[] = {{"mean_h", r.mean_h},   {"rmse_h", r.rmse_h},
+                                                       {"median_h", r.median_h}, {"p95_h", r.p95_h},
+                                                       {"max_h", r.max_h},     {"rmse_v", r.rmse_v}};
+      for (const auto& [name, v] : fields) {
+        std::printf(", \"%s\": ", name);
+        print_json_number(r.count ? v : NAN);
+      }
+      std::printf("}");
+    }
+    std::printf("]}\n");
+  } else {
+    std::printf("%-14s %-10s %7s %8s %8s %8s %8s %8s %8s\n", "channel", "tag", "count", "mean_h",
+                "rmse_h", "median_h", "p95_h", "max_h", "rmse_v");
+    for (const auto& r : rows) {
+      std::printf("%-14s %-10s %7zu %8.3f %8.3f %8.3f %8.3f %8.3f %8.3f\n",
+                  printable(r.channel).c_str(), printable(r.tag).c_str(), r.count, r.mean_h,
+                  r.rmse_h, r.median_h, r.p95_h, r.max_h, r.rmse_v);
+    }
+    std::printf("(errors in metres; %lld log events, %lld truth samples, %lld estimates, %zu "
+                "estimates without truth around them)\n",
+                static_cast<long long>(events), static_cast<long long>(truth),
+                static_cast<long long>(poses), ev.unmatched());
+  }
+  if (truth == 0) std::fprintf(stderr, "ips-eval: warning: no %s messages in %s\n", truth_channel.c_str(), log_path.c_str());
+  if (rows.empty()) std::fprintf(stderr, "ips-eval: warning: no pose estimates in %s\n", log_path.c_str());
+  return 0;
+}

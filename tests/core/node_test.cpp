@@ -1,0 +1,97 @@
+// The node runtime on LCM's in-process memq provider (the multicast path is covered by the
+// integration tests in a network namespace).
+#include "core/node.hpp"
+
+#include <gtest/gtest.h>
+
+#include <ips/pose_t.hpp>
+#include <ips/uwb_range_t.hpp>
+
+#include "core/lcm_url.hpp"
+
+namespace ips {
+namespace {
+
+CommonOptions memq() {
+  CommonOptions o;
+  o.lcm_url = "memq://";
+  return o;
+}
+
+TEST(Node, TypedPublishSubscribeCountsMessages) {
+  Node node("test", memq());
+  std::vector<double> got;
+  node.subscribe<uwb_range_t>("R", [&](const uwb_range_t& m, const std::string& ch) {
+    EXPECT_EQ(ch, "R");
+    got.push_back(m.range_m);
+  });
+  uwb_range_t m{};
+  m.range_m = 4.25;
+  node.publish("R", m);
+  node.spin_once(100);
+  ASSERT_EQ(got.size(), 1u);
+  EXPECT_EQ(got[0], 4.25);
+  EXPECT_EQ(node.counters().msgs_in, 1);
+  EXPECT_EQ(node.counters().msgs_out, 1);
+}
+
+TEST(Node, WrongTypeOnChannelIsAParseErrorNotACrash) {
+  Node node("test", memq());
+  int calls = 0;
+  node.subscribe<uwb_range_t>("R", [&](const uwb_range_t&, const std::string&) { ++calls; });
+  pose_t p{};
+  node.lcm().publish("R", &p);
+  const uint8_t garbage[5] = {1, 2, 3, 4, 5};
+  node.lcm().publish("R", garbage, sizeof garbage);
+  node.spin_once(100);
+  node.spin_once(100);
+  EXPECT_EQ(calls, 0);
+  EXPECT_EQ(node.counters().msgs_in, 2);
+  EXPECT_EQ(node.counters().parse_errors, 2);
+}
+
+TEST(Node, HealthReportsCountersAndErrors) {
+  Node node("healthy", memq());
+  std::vector<health_t> health;
+  node.subscribe<health_t>("HEALTH", [&](const health_t& h, const std::string&) { health.push_back(h); });
+  node.report_error("something broke");
+  node.publish_health();
+  node.spin_once(100);
+  ASSERT_EQ(health.size(), 1u);
+  EXPECT_EQ(health[0].source, "healthy");
+  EXPECT_EQ(health[0].state, health_t::STATE_DEGRADED);
+  EXPECT_EQ(health[0].last_error, "something broke");
+  EXPECT_GT(health[0].pid, 0);
+}
+
+TEST(Node, TimerFires) {
+  Node node("t", memq());
+  int ticks = 0;
+  node.add_timer(0.01, [&] { ++ticks; });
+  for (int i = 0; i < 10 && ticks < 2; ++i) node.spin_once(50);
+  EXPECT_GE(ticks, 2);
+}
+
+TEST(LcmUrl, BadUrlThrowsOneClearLine) {
+  CommonOptions o;
+  o.lcm_url = "bogus://nowhere";
+  try {
+    Node node("t", o);
+    FAIL() << "expected LcmOpenError";
+  } catch (const LcmOpenError& e) {
+    std::string what = e.what();
+    EXPECT_EQ(what.rfind("cannot open LCM URL 'bogus://nowhere': ", 0), 0u) << what;
+    EXPECT_EQ(what.find('\n'), std::string::npos);
+  }
+}
+
+TEST(LcmUrl, EffectiveUrlPrefersFlagThenEnvironment) {
+  EXPECT_EQ(effective_lcm_url("memq://"), "memq://");
+  setenv("LCM_DEFAULT_URL", "udpm://239.1.2.3:7000?ttl=0", 1);
+  EXPECT_EQ(effective_lcm_url(""), "udpm://239.1.2.3:7000?ttl=0");
+  unsetenv("LCM_DEFAULT_URL");
+  EXPECT_EQ(effective_lcm_url(""), "udpm://239.255.76.67:7667?ttl=0");
+}
+
+}  // namespace
+}  // namespace ips

@@ -1,0 +1,100 @@
+// Site files: valid files load; every kind of mistake gives file, line, field and reason.
+#include "core/site.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+
+namespace ips {
+namespace {
+
+std::string error_of(const std::string& yaml) {
+  try {
+    parse_site_text(yaml, "site.yaml");
+  } catch (const ConfigError& e) {
+    return e.what();
+  }
+  return "no error";
+}
+
+TEST(Site, LoadsTheLabSiteFile) {
+  Site s = load_site_file(IPS_SOURCE_DIR "/config/sites/lab.yaml");
+  EXPECT_EQ(s.name, "lab");
+  ASSERT_EQ(s.anchors.size(), 4u);
+  EXPECT_EQ(s.anchors[2].id, "A3");
+  EXPECT_EQ(s.anchors[2].position, Eigen::Vector3d(10, 8, 2.4));
+  ASSERT_EQ(s.tags.size(), 1u);
+  EXPECT_DOUBLE_EQ(s.tags[0].height_m, 1.2);
+  EXPECT_DOUBLE_EQ(s.estimator_params("uwb_twr").get_double("range_sigma_m", 0), 0.10);
+  EXPECT_FALSE(s.estimator_params("nothing").defined());
+}
+
+TEST(Site, DefaultsAndOrientation) {
+  Site s = parse_site_text(
+      "anchors:\n  - {id: B, kind: ble_aoa, position: [1, 2, 3], orientation_deg: [0, 0, 90]}\n"
+      "tags:\n  - {id: T}\n",
+      "x");
+  EXPECT_EQ(s.name, "unnamed");
+  EXPECT_EQ(s.anchors[0].kind, "ble_aoa");
+  EXPECT_NEAR(s.anchors[0].orientation_rad.z(), M_PI / 2, 1e-12);
+  EXPECT_TRUE(s.anchors[0].enabled);
+  EXPECT_TRUE(std::isnan(s.tags[0].height_m));
+}
+
+TEST(Site, RoundTripsThroughSiteMessage) {
+  Site s = load_site_file(IPS_SOURCE_DIR "/config/sites/lab.yaml");
+  site_t m = site_to_msg(s, 123, "test");
+  EXPECT_EQ(m.num_anchors, 4);
+  EXPECT_EQ(m.anchors[1].position[0], 10.0);
+  EXPECT_EQ(m.num_tags, 1);
+  Site back = site_from_msg(m);
+  EXPECT_EQ(back.anchors.size(), 4u);
+  EXPECT_EQ(back.anchors[3].position, s.anchors[3].position);
+  EXPECT_DOUBLE_EQ(back.estimator_params("uwb_twr").get_double("range_sigma_m", 0), 0.10);
+}
+
+TEST(SiteErrors, SyntaxErrorNamesLineAndColumn) {
+  EXPECT_EQ(error_of("anchors: [\n  {id: A1, position: [0, 0"),
+            "site.yaml:2:1: YAML syntax error: end of sequence flow not found");
+}
+
+TEST(SiteErrors, MissingAnchors) {
+  EXPECT_EQ(error_of("name: x\n"), "site.yaml:1: anchors: field is required");
+}
+
+TEST(SiteErrors, PositionWithTwoNumbers) {
+  EXPECT_EQ(error_of("anchors:\n  - id: A1\n    position: [1, 2]\n"),
+            "site.yaml:3: anchors[0].position: expected a list of 3 numbers [x, y, z]");
+}
+
+TEST(SiteErrors, NonNumericCoordinate) {
+  EXPECT_EQ(error_of("anchors:\n  - {id: A1, position: [1, two, 3]}\n"),
+            "site.yaml:2: anchors[0].position[1]: expected a number, got 'two'");
+}
+
+TEST(SiteErrors, DuplicateAnchor) {
+  EXPECT_EQ(error_of("anchors:\n  - {id: A1, position: [0, 0, 0]}\n  - {id: A1, position: [1, 0, 0]}\n"),
+            "site.yaml:3: anchors[1].id: duplicate anchor id 'A1'");
+}
+
+TEST(SiteErrors, UnknownKind) {
+  EXPECT_EQ(error_of("anchors:\n  - {id: A1, kind: lidar, position: [0, 0, 0]}\n"),
+            "site.yaml:2: anchors[0].kind: unknown kind 'lidar' (uwb, uwb_tdoa, ble_aoa)");
+}
+
+TEST(SiteErrors, NotAMap) {
+  EXPECT_EQ(error_of("- 1\n- 2\n"), "site.yaml:1: expected a site map (name, anchors, tags)");
+}
+
+TEST(SiteErrors, UnreadableFile) {
+  try {
+    load_site_file("/nonexistent/site.yaml");
+    FAIL();
+  } catch (const ConfigError& e) {
+    EXPECT_STREQ(e.what(), "/nonexistent/site.yaml: cannot read: No such file or directory");
+  }
+}
+
+}  // namespace
+}  // namespace ips
