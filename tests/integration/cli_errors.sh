@@ -1,0 +1,69 @@
+#!/usr/bin/env bash
+# Bad input on the command line: a malformed site file, an unknown scenario, an LCM URL that
+# cannot be opened, a missing log. Each gives exactly one clear error line on stderr and a
+# non-zero exit status, never a crash. And every program answers --help with status 0.
+set -uo pipefail
+BIN=$(cd "$1" && pwd)
+ROOT=$(cd "$2" && pwd)
+WORK=$(mktemp -d)
+trap 'rm -rf "$WORK"' EXIT
+failures=0
+
+# expect STATUS PATTERN CMD...: runs CMD, checks status, one stderr line matching PATTERN.
+expect() {
+  local want_status=$1 pattern=$2
+  shift 2
+  local status=0
+  timeout 20 "$@" >"$WORK/out" 2>"$WORK/err" || status=$?
+  local lines
+  lines=$(wc -l <"$WORK/err")
+  if [ "$status" -ne "$want_status" ] || [ "$lines" -ne 1 ] || ! grep -Eq -- "$pattern" "$WORK/err"; then
+    echo "FAIL: $*"
+    echo "  status $status (want $want_status), $lines stderr lines (want 1), pattern: $pattern"
+    sed 's/^/  stderr: /' "$WORK/err" | head -20
+    failures=$((failures + 1))
+  else
+    echo "ok: $* -> $(cat "$WORK/err")"
+  fi
+}
+
+cat >"$WORK/bad-site.yaml" <<'YAML'
+name: broken
+anchors:
+  - {id: A1, position: [0, 0]}
+YAML
+printf 'name: x\nanchors: [ {id: A1\n' >"$WORK/bad-syntax.yaml"
+
+expect 2 "^ips-uwb-twr: error: .*bad-site.yaml:3: anchors\[0\]\.position: expected a list of 3 numbers" \
+  "$BIN/ips-uwb-twr" --lcm-url memq:// --site "$WORK/bad-site.yaml"
+expect 2 "^ips-uwb-twr: error: .*bad-syntax.yaml:[0-9]+:[0-9]+: YAML syntax error" \
+  "$BIN/ips-uwb-twr" --lcm-url memq:// --site "$WORK/bad-syntax.yaml"
+expect 2 "^ips-uwb-twr: error: /nonexistent.yaml: cannot read: No such file or directory" \
+  "$BIN/ips-uwb-twr" --lcm-url memq:// --site /nonexistent.yaml
+expect 2 "^ips-sim: error: unknown scenario 'atlantis': not a built-in scenario \(lab" \
+  "$BIN/ips-sim" --scenario atlantis
+expect 2 "^ips-sim: error: .*bad-site.yaml:[0-9]+: .*" \
+  "$BIN/ips-sim" --scenario "$WORK/bad-site.yaml" --out "$WORK/x.lcm"
+expect 1 "^ips-uwb-twr: error: cannot open LCM URL 'bogus://nowhere'" \
+  "$BIN/ips-uwb-twr" --lcm-url bogus://nowhere --site "$ROOT/config/sites/lab.yaml"
+expect 1 "^ips-sim: error: cannot open LCM URL 'udpm://300.1.2.3:7667'" \
+  "$BIN/ips-sim" --scenario lab --lcm-url udpm://300.1.2.3:7667
+expect 1 "^ips-bus-check: error: cannot open LCM URL 'udpm://nohost'" \
+  "$BIN/ips-bus-check" --lcm-url udpm://nohost
+expect 2 "^ips-eval: error: cannot read log '/nonexistent.lcm'" "$BIN/ips-eval" /nonexistent.lcm
+expect 2 "^ips-sim: error: .*--seed" "$BIN/ips-sim" --scenario lab --seed minus-one
+expect 2 "^ips-uwb-twr: error: The following argument was not expected: --frobnicate" \
+  "$BIN/ips-uwb-twr" --frobnicate
+
+for prog in ips-sim ips-uwb-twr ips-eval ips-bus-check; do
+  if "$BIN/$prog" --help >"$WORK/out" 2>"$WORK/err" && grep -q -- "--log-level" "$WORK/out" &&
+    [ ! -s "$WORK/err" ]; then
+    echo "ok: $prog --help"
+  else
+    echo "FAIL: $prog --help"
+    failures=$((failures + 1))
+  fi
+done
+
+echo "$failures failure(s)"
+[ "$failures" -eq 0 ]
