@@ -3,6 +3,7 @@
 #include <fcntl.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <cstdlib>
 
@@ -57,10 +58,20 @@ std::unique_ptr<lcm::LCM> open_lcm(const std::string& url) {
   std::unique_ptr<lcm::LCM> lc;
   std::string lcm_said = capture_stderr([&] { lc = std::make_unique<lcm::LCM>(eff); });
   if (!lc->good()) {
+    std::string hint;
+    if (lcm_said.find("multicast route") != std::string::npos) {
+      // liblcm's own advice names ifconfig/route; give the iproute2 commands and drop the rest.
+      // (liblcm 1.3's "No route to <address>" prints an uninitialised address: drop it too.)
+      lcm_said = lcm_said.substr(0, std::min(lcm_said.find("; No route to"),
+                                             lcm_said.find("; LCM requires")));
+      hint = "this machine has no multicast route; as root: ip link set lo multicast on && ip "
+             "route add 224.0.0.0/4 dev lo (docs/networking.md)";
+    } else {
+      hint = "expected e.g. udpm://239.255.76.67:7667?ttl=0, memq:// or file:///path.lcm "
+             "(docs/networking.md)";
+    }
     std::string why = lcm_said.empty() ? "liblcm could not create it" : lcm_said;
-    throw LcmOpenError("cannot open LCM URL '" + eff + "': " + why +
-                       " (expected e.g. udpm://239.255.76.67:7667?ttl=0; for multicast on one "
-                       "host see docs/networking.md)");
+    throw LcmOpenError("cannot open LCM URL '" + eff + "': " + why + " (" + hint + ")");
   }
   return lc;
 }

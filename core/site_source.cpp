@@ -13,6 +13,8 @@ void provide_site(Node& node, std::function<void(const Site&)> on_site) {
     on_site(load_site_file(node.options().site_path));
     return;
   }
+  // Until a site arrives the process is up but cannot do its job: say so in health_t.
+  node.set_state(health_t::STATE_STARTING);
   spdlog::info("{}: no --site given, waiting for a SITE message on {}", node.name(),
                node.options().channel(channel::kSite));
   auto last_text = std::make_shared<std::string>();
@@ -25,6 +27,7 @@ void provide_site(Node& node, std::function<void(const Site&)> on_site) {
                              spdlog::info("{}: site '{}' from {} ({} anchors)", node.name(),
                                           site.name, msg.source, site.anchors.size());
                              on_site(site);
+                             node.set_state(health_t::STATE_OK);
                            } catch (const SiteError& e) {
                              ++node.counters().parse_errors;
                              node.report_error(e.what());

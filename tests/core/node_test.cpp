@@ -8,6 +8,9 @@
 #include <ips/uwb_range_t.hpp>
 
 #include "core/lcm_url.hpp"
+#include "core/site_source.hpp"
+
+#include <csignal>
 
 namespace ips {
 namespace {
@@ -70,6 +73,40 @@ TEST(Node, TimerFires) {
   node.add_timer(0.01, [&] { ++ticks; });
   for (int i = 0; i < 10 && ticks < 2; ++i) node.spin_once(50);
   EXPECT_GE(ticks, 2);
+}
+
+TEST(Node, SigtermEndsRunWithStatusZero) {
+  Node node("t", memq());
+  node.add_timer(0.01, [] { raise(SIGTERM); });
+  EXPECT_EQ(node.run(), 0);
+  EXPECT_TRUE(node.stopping());
+}
+
+TEST(SiteSource, WaitsForSiteMessageAndReportsStartingMeanwhile) {
+  Node node("est", memq());
+  std::vector<std::string> sites;
+  provide_site(node, [&](const Site& s) { sites.push_back(s.name); });
+  std::vector<int8_t> states;
+  node.subscribe<health_t>("HEALTH", [&](const health_t& h, const std::string&) { states.push_back(h.state); });
+  node.publish_health();
+  node.spin_once(100);
+  Site site = parse_site_text("name: hall\nanchors:\n  - {id: A, position: [0, 0, 0]}\n", "x");
+  node.publish("SITE", site_to_msg(site, 1, "test"));
+  node.spin_once(100);
+  node.publish("SITE", site_to_msg(site, 2, "test"));  // same site again: not re-applied
+  node.spin_once(100);
+  site_t broken = site_to_msg(site, 3, "test");
+  broken.site_yaml = "anchors: [";
+  node.publish("SITE", broken);
+  node.spin_once(100);
+  node.publish_health();
+  node.spin_once(100);
+  ASSERT_EQ(sites.size(), 1u);
+  EXPECT_EQ(sites[0], "hall");
+  ASSERT_EQ(states.size(), 2u);
+  EXPECT_EQ(states[0], health_t::STATE_STARTING);
+  EXPECT_EQ(states[1], health_t::STATE_DEGRADED);  // the broken SITE was reported
+  EXPECT_EQ(node.counters().parse_errors, 1);
 }
 
 TEST(LcmUrl, BadUrlThrowsOneClearLine) {

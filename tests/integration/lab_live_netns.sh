@@ -43,8 +43,8 @@ check_bound() {  # log channel
     fail "$2: rmse_h $rmse (bound 0.15), p95_h $p95 (bound 0.30)"
   echo "$2: count $count rmse_h $rmse p95_h $p95 (bounds 0.15, 0.30): ok"
 }
-stop() {  # pid name: SIGINT, expect a clean exit 0
-  kill -INT "$1"
+stop() {  # pid name [signal]: SIGINT (or the signal given), expect a clean exit 0
+  kill -"${3:-INT}" "$1"
   local rc=0
   wait "$1" || rc=$?
   [ "$rc" -eq 0 ] || fail "$2 exited with status $rc after SIGINT (expected 0)"
@@ -72,7 +72,7 @@ lcm-logger -q -f -c 'POSE_UWB_REPLAY' "$WORK/replay.lcm" & logger=$!; pids+=($lo
 sleep 0.5
 lcm-logplayer -s $SPEED -e '^(SITE|UWB_RANGE|TRUTH)$' "$WORK/live.lcm"
 sleep 0.5
-stop $twr ips-uwb-twr
+stop $twr ips-uwb-twr TERM
 stop $logger lcm-logger
 # Score the replayed estimates against the truth of the original log.
 cat "$WORK/live.lcm" "$WORK/replay.lcm" > "$WORK/both.lcm"
