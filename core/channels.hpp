@@ -1,8 +1,6 @@
 #pragma once
 // Default channel names (docs/channels.md). Every program can rename any of them with
 // --channel KIND=NAME.
-#include <map>
-#include <string>
 
 namespace ips::channel {
 
@@ -24,5 +22,10 @@ inline constexpr const char* kStep = "STEP";
 inline constexpr const char* kAltitude = "ALTITUDE";
 inline constexpr const char* kClock = "CLOCK";
 inline constexpr const char* kPoseFused = "POSE_FUSED";
+
+// Every kind, for checking --channel KIND=NAME.
+inline constexpr const char* kAllKinds[] = {
+    kUwbRange, kUwbRx,    kBleAoa,   kImu,     kBaro,    kInsModule, kSite,  kHealth,    kTruth,
+    kPoseUwb,  kPoseTdoa, kPoseAoa,  kPosePdr, kPoseIns, kStep,      kAltitude, kClock, kPoseFused};
 
 }  // namespace ips::channel

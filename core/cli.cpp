@@ -1,8 +1,10 @@
 #include "core/cli.hpp"
 
+#include <algorithm>
 #include <cstdio>
 #include <iostream>
 
+#include "core/channels.hpp"
 #include "core/logging.hpp"
 
 namespace ips {
@@ -67,6 +69,15 @@ bool parse_command_line(CLI::App& app, const CommonOptions& opts, int argc, char
     auto eq = o.find('=');
     if (eq == std::string::npos || eq == 0 || eq + 1 == o.size()) {
       print_fatal(app.get_name(), "--channel: expected KIND=NAME, got '" + o + "'");
+      exit_code = 2;
+      return false;
+    }
+    const std::string kind = o.substr(0, eq);
+    if (std::find(std::begin(channel::kAllKinds), std::end(channel::kAllKinds), kind) ==
+        std::end(channel::kAllKinds)) {
+      std::string kinds;
+      for (const char* k : channel::kAllKinds) kinds += (kinds.empty() ? "" : ", ") + std::string(k);
+      print_fatal(app.get_name(), "--channel: unknown kind '" + kind + "' (" + kinds + ")");
       exit_code = 2;
       return false;
     }

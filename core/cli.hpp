@@ -32,6 +32,7 @@ void add_common_options(CLI::App& app, CommonOptions& opts, CommonFlags flags = 
 // go on. Also applies --log-level and checks --channel syntax.
 bool parse_command_line(CLI::App& app, const CommonOptions& opts, int argc, char** argv,
                         int& exit_code);
+// (--channel KIND must be one of channel::kAllKinds: a misspelt kind is an error, not ignored.)
 
 // Prints "<program>: error: <what>" on stderr (one line, for start-up failures).
 void print_fatal(const std::string& program, const std::string& what);

@@ -67,8 +67,7 @@ std::unique_ptr<lcm::LCM> open_lcm(const std::string& url) {
       hint = "this machine has no multicast route; as root: ip link set lo multicast on && ip "
              "route add 224.0.0.0/4 dev lo (docs/networking.md)";
     } else {
-      hint = "expected e.g. udpm://239.255.76.67:7667?ttl=0, memq:// or file:///path.lcm "
-             "(docs/networking.md)";
+      hint = "expected e.g. udpm://239.255.76.67:7667?ttl=0 (docs/networking.md)";
     }
     std::string why = lcm_said.empty() ? "liblcm could not create it" : lcm_said;
     throw LcmOpenError("cannot open LCM URL '" + eff + "': " + why + " (" + hint + ")");

@@ -9,6 +9,7 @@
 #include <lcm/lcm-cpp.hpp>
 #include <list>
 #include <memory>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -24,6 +25,19 @@ struct NodeCounters {
   int64_t parse_errors = 0;
   int64_t drops = 0;
 };
+
+// Decodes an LCM message from bytes off the bus; false (never an exception) when the bytes are not
+// a valid Msg. The generated decoders are hardened (lcmtypes/harden_generated.cmake); the catch is
+// the last line of defence against allocation failure.
+template <class Msg>
+bool decode_message(Msg& msg, const void* data, size_t size) {
+  if (size > INT32_MAX) return false;
+  try {
+    return msg.decode(data, 0, static_cast<int>(size)) >= 0;
+  } catch (const std::exception&) {
+    return false;
+  }
+}
 
 class Node {
  public:
@@ -97,8 +111,7 @@ void Node::subscribe(const std::string& channel,
   subscribe_raw(channel, [this, handler = std::move(handler)](const lcm::ReceiveBuffer* rbuf,
                                                               const std::string& chan) {
     Msg msg;
-    if (rbuf->data_size > INT32_MAX ||
-        msg.decode(rbuf->data, 0, static_cast<int>(rbuf->data_size)) < 0) {
+    if (!decode_message(msg, rbuf->data, rbuf->data_size)) {
       ++counters_.parse_errors;
       report_error("channel " + chan + ": message does not decode as " + Msg::getTypeName());
       return;

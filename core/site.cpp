@@ -27,6 +27,7 @@ YamlField Site::estimator_params(const std::string& estimator) const {
 
 Site parse_site(const YamlField& root) {
   if (!root.is_map()) root.fail("expected a site map (name, anchors, tags)");
+  root.check_keys({"name", "anchors", "baro_stations", "tags", "estimators"});
   Site site;
   site.origin = root.origin();
   site.name = root.get_string("name", "unnamed");
@@ -36,6 +37,7 @@ Site parse_site(const YamlField& root) {
   if (!anchors.is_sequence()) anchors.fail("expected a list of anchors");
   for (size_t i = 0; i < anchors.size(); ++i) {
     auto a = anchors[i];
+    a.check_keys({"id", "kind", "position", "orientation_deg", "enabled"});
     Anchor anchor;
     anchor.id = a.required("id").as_string();
     if (anchor.id.empty()) a["id"].fail("must not be empty");
@@ -53,8 +55,11 @@ Site parse_site(const YamlField& root) {
   auto stations = root["baro_stations"];
   if (stations.defined() && !stations.is_sequence()) stations.fail("expected a list");
   for (size_t i = 0; i < stations.size(); ++i) {
+    stations[i].check_keys({"id", "position"});
     BaroStation s;
     s.id = stations[i].required("id").as_string();
+    if (s.id.empty()) stations[i]["id"].fail("must not be empty");
+    if (!ids.insert(s.id).second) stations[i]["id"].fail("duplicate id '" + s.id + "'");
     s.position = stations[i].required("position").as_vec3();
     site.baro_stations.push_back(s);
   }
@@ -63,8 +68,10 @@ Site parse_site(const YamlField& root) {
   if (tags.defined() && !tags.is_sequence()) tags.fail("expected a list of tags");
   std::set<std::string> tag_ids;
   for (size_t i = 0; i < tags.size(); ++i) {
+    tags[i].check_keys({"id", "height_m"});
     Tag t;
     t.id = tags[i].required("id").as_string();
+    if (t.id.empty()) tags[i]["id"].fail("must not be empty");
     if (!tag_ids.insert(t.id).second) tags[i]["id"].fail("duplicate tag id '" + t.id + "'");
     t.height_m = tags[i].get_double("height_m", std::numeric_limits<double>::quiet_NaN());
     site.tags.push_back(t);

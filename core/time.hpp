@@ -10,6 +10,10 @@ using utime_t = int64_t;
 constexpr double utime_to_s(utime_t us) { return static_cast<double>(us) * 1e-6; }
 constexpr utime_t s_to_utime(double s) { return static_cast<utime_t>(s * 1e6 + (s >= 0 ? 0.5 : -0.5)); }
 
+// A utime an estimator can do arithmetic on: positive, and small enough (< year 2096) that the
+// difference of two never overflows. Anything else off the wire is invalid input.
+constexpr bool plausible_utime(utime_t us) { return us > 0 && us < 4'000'000'000'000'000'000; }
+
 // Host wall clock in us since the Unix epoch. Only drivers and the node runtime call this;
 // estimators run on message time.
 inline utime_t wall_utime_now() {

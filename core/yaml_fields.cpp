@@ -36,6 +36,20 @@ void YamlField::fail(const std::string& reason) const {
   throw ConfigError(where + ": " + (path_.empty() ? "" : path_ + ": ") + reason);
 }
 
+void YamlField::check_keys(std::initializer_list<const char*> known) const {
+  if (!node_.IsMap()) return;
+  for (const auto& kv : node_) {
+    const std::string key = kv.first.IsScalar() ? kv.first.Scalar() : "?";
+    bool ok = false;
+    for (const char* k : known) ok = ok || key == k;
+    if (ok) continue;
+    std::string list;
+    for (const char* k : known) list += (list.empty() ? "" : ", ") + std::string(k);
+    YamlField(kv.first, origin_, path_.empty() ? key : path_ + "." + key)
+        .fail("unknown field (known: " + list + ")");
+  }
+}
+
 double YamlField::as_double() const {
   if (!node_.IsScalar()) fail(defined() ? "expected a number" : "field is required");
   try {

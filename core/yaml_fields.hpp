@@ -4,7 +4,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include <Eigen/Core>
-#include <optional>
+#include <initializer_list>
 #include <stdexcept>
 #include <string>
 
@@ -32,6 +32,9 @@ class YamlField {
   bool is_sequence() const { return node_.IsSequence(); }
 
   [[noreturn]] void fail(const std::string& reason) const;
+  // Fails on a key of this map that is not in `known`: a misspelt field must not silently fall
+  // back to its default.
+  void check_keys(std::initializer_list<const char*> known) const;
 
   double as_double() const;
   int64_t as_int() const;

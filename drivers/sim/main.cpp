@@ -4,6 +4,7 @@
 
 #include <cstdio>
 #include <lcm/lcm-cpp.hpp>
+#include <optional>
 #include <spdlog/spdlog.h>
 #include <thread>
 
@@ -92,18 +93,22 @@ int main(int argc, char** argv) {
   double duration = 0;
   double speed = 1.0;
   std::string out;
-  int64_t start_utime = 0;
+  std::optional<int64_t> start_utime;
   bool list = false;
   app.add_option("--scenario", scenario_name, "built-in scenario name or scenario file")
       ->type_name("NAME|FILE");
   app.add_option("--seed", seed, "random seed")->capture_default_str();
   app.add_option("--duration", duration, "seconds to simulate (default: the scenario's)")
       ->check(CLI::PositiveNumber);
-  app.add_option("--out", out, "write a standard LCM log as fast as possible instead of publishing")
-      ->type_name("FILE.lcm");
-  app.add_option("--speed", speed, "live mode: playback speed factor")
-      ->capture_default_str()
-      ->check(CLI::PositiveNumber);
+  auto* out_opt =
+      app.add_option("--out", out, "write a standard LCM log as fast as possible instead of "
+                                   "publishing")
+          ->type_name("FILE.lcm");
+  auto* speed_opt = app.add_option("--speed", speed, "live mode: playback speed factor")
+                        ->capture_default_str()
+                        ->check(CLI::PositiveNumber);
+  out_opt->excludes(speed_opt);
+  if (auto* url_opt = app.get_option_no_throw("--lcm-url")) out_opt->excludes(url_opt);
   app.add_option("--start-utime", start_utime,
                  "utime of the scenario start (default: now when live, 2026-01-01T00:00:00Z with "
                  "--out)");
@@ -122,11 +127,11 @@ int main(int argc, char** argv) {
     ips::sim::Scenario sc = ips::sim::load_scenario(scenario_name);
     if (duration > 0) sc.duration_s = duration;
     if (!out.empty()) {
-      ips::sim::Simulator sim(std::move(sc), seed, start_utime ? start_utime : kDefaultLogStart);
+      ips::sim::Simulator sim(std::move(sc), seed, start_utime.value_or(kDefaultLogStart));
       return write_log(sim, opts, out);
     }
     ips::Node node("ips-sim", opts);
-    ips::sim::Simulator sim(std::move(sc), seed, start_utime ? start_utime : ips::wall_utime_now());
+    ips::sim::Simulator sim(std::move(sc), seed, start_utime.value_or(ips::wall_utime_now()));
     return publish_live(sim, node, speed);
   } catch (const ips::ConfigError& e) {
     ips::print_fatal("ips-sim", e.what());

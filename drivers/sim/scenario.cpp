@@ -10,8 +10,13 @@ namespace {
 
 UwbTwrModel parse_uwb_twr(const YamlField& f) {
   UwbTwrModel m;
-  if (!f.defined()) return m;
+  if (!f.node().IsDefined()) return m;
+  // `uwb_twr:` with nothing after it means the model with its defaults.
+  m.enabled = true;
+  if (f.node().IsNull()) return m;
   if (!f.is_map()) f.fail("expected a map of model parameters");
+  f.check_keys({"enabled", "rate_hz", "noise_sigma_m", "bias_m", "nlos_probability",
+                "nlos_bias_min_m", "nlos_bias_max_m", "loss_probability", "max_range_m"});
   m.enabled = f.get_bool("enabled", true);
   m.rate_hz = f.get_double("rate_hz", m.rate_hz);
   if (!(m.rate_hz > 0 && m.rate_hz <= 1000)) f["rate_hz"].fail("must be in (0, 1000]");
@@ -34,6 +39,7 @@ UwbTwrModel parse_uwb_twr(const YamlField& f) {
 Scenario parse_scenario_text(const std::string& text, const std::string& origin) {
   YamlField root = parse_yaml_text(text, origin);
   if (!root.is_map()) root.fail("expected a scenario map (name, site, trajectories, sensors)");
+  root.check_keys({"name", "duration_s", "site_period_s", "site", "trajectories", "sensors"});
   Scenario sc;
   sc.name = root.get_string("name", std::filesystem::path(origin).stem().string());
   sc.duration_s = root.get_double("duration_s", sc.duration_s);
@@ -46,7 +52,10 @@ Scenario parse_scenario_text(const std::string& text, const std::string& origin)
   if (!trajs.is_sequence() || trajs.size() == 0) trajs.fail("expected a list of trajectories");
   for (size_t i = 0; i < trajs.size(); ++i) {
     auto t = trajs[i];
+    t.check_keys({"tag", "waypoints", "height_m", "speed_mps", "loop"});
     std::string tag = t.required("tag").as_string();
+    for (const auto& other : sc.trajectories)
+      if (other.tag_id == tag) t["tag"].fail("tag '" + tag + "' already has a trajectory");
     const Tag* site_tag = sc.site.find_tag(tag);
     if (!site_tag) t["tag"].fail("tag '" + tag + "' is not in site.tags");
     auto wps = t.required("waypoints");
@@ -65,6 +74,8 @@ Scenario parse_scenario_text(const std::string& text, const std::string& origin)
 
   auto sensors = root["sensors"];
   if (sensors.defined() && !sensors.is_map()) sensors.fail("expected a map of sensor models");
+  sensors.check_keys({"truth", "uwb_twr"});
+  sensors["truth"].check_keys({"rate_hz"});
   sc.truth.rate_hz = sensors["truth"].get_double("rate_hz", sc.truth.rate_hz);
   if (!(sc.truth.rate_hz > 0)) sensors["truth"]["rate_hz"].fail("must be positive");
   sc.uwb_twr = parse_uwb_twr(sensors["uwb_twr"]);

@@ -1,6 +1,6 @@
 #pragma once
 // A simulator scenario: a site, one trajectory per tag, and sensor error models
-// (docs/scenarios.md). Built-in scenarios are the files of config/scenarios/, compiled in.
+// (docs/site-file.md). Built-in scenarios are the files of config/scenarios/, compiled in.
 #include <string>
 #include <vector>
 

@@ -16,6 +16,9 @@ TwrParams parse_twr_params(const YamlField& s) {
   TwrParams p;
   if (!s.defined()) return p;
   if (!s.is_map()) s.fail("expected a map of uwb_twr parameters");
+  s.check_keys({"mode", "range_sigma_m", "accel_psd", "gate_sigma", "nlos_gate_sigma",
+                "epoch_window_s", "init_velocity_sigma_mps", "reinit_after_rejections",
+                "max_coast_s", "publish_period_s", "reorder_tolerance_s", "max_range_m"});
   auto positive = [&](const char* key, double& v) {
     v = s.get_double(key, v);
     if (!(v > 0)) s[key].fail("must be positive");
@@ -51,7 +54,8 @@ void TwrEstimator::set_site(const Site& site) {
 void TwrEstimator::on_range(const uwb_range_t& m) {
   ++stats_.ranges_in;
   if (!site_) return;
-  if (!std::isfinite(m.range_m) || m.range_m < 0 || m.range_m > params_.max_range_m) {
+  if (!plausible_utime(m.utime) || !std::isfinite(m.range_m) || m.range_m < 0 ||
+      m.range_m > params_.max_range_m) {
     ++stats_.dropped_invalid;
     return;
   }
@@ -67,9 +71,20 @@ void TwrEstimator::on_range(const uwb_range_t& m) {
     t.planar = !params_.force_3d && tag && std::isfinite(tag->height_m);
     t.height_m = t.planar ? tag->height_m : 0.0;
   }
-  if (!t.recent.empty() && m.utime < t.recent.back().utime - s_to_utime(params_.reorder_tolerance_s)) {
-    ++stats_.dropped_late;
-    return;
+  if (!t.recent.empty()) {
+    const utime_t behind = t.recent.back().utime - m.utime;
+    if (behind > s_to_utime(params_.max_coast_s)) {
+      // Time went back further than any reordering explains (a clock step, a replay restarted,
+      // or one bogus future stamp before): start this track afresh rather than drop forever.
+      ++stats_.time_resets;
+      Track fresh;
+      fresh.planar = t.planar;
+      fresh.height_m = t.height_m;
+      t = std::move(fresh);
+    } else if (behind > s_to_utime(params_.reorder_tolerance_s)) {
+      ++stats_.dropped_late;
+      return;
+    }
   }
   t.recent.push_back({m.utime, m.anchor_id, m.range_m});
   while (t.recent.size() > 64 ||

@@ -28,7 +28,7 @@ struct TwrParams {
   int reinit_after_rejections = 12;  // consecutive gated ranges that trigger re-initialisation
   double max_coast_s = 3.0;       // no accepted range for this long: re-initialise
   double publish_period_s = 0.1;  // at most one pose per tag per period
-  double reorder_tolerance_s = 0.05;  // older ranges than this behind the filter are dropped
+  double reorder_tolerance_s = 0.05;  // ranges this far behind the tag's newest are still used
   double max_range_m = 300.0;
 };
 
@@ -40,8 +40,9 @@ struct TwrStats {
   int64_t ranges_used = 0;
   int64_t rejected_gate = 0;
   int64_t dropped_unknown_anchor = 0;  // anchor not in the site or disabled
-  int64_t dropped_invalid = 0;         // NaN, negative or absurd range
-  int64_t dropped_late = 0;            // older than reorder_tolerance_s
+  int64_t dropped_invalid = 0;         // NaN, negative or absurd range, or implausible utime
+  int64_t dropped_late = 0;            // older than the tag's newest range by reorder_tolerance_s
+  int64_t time_resets = 0;             // older by more than max_coast_s: track restarted
   int64_t initialisations = 0;
   int64_t poses_out = 0;
 };
@@ -65,9 +66,9 @@ class TwrEstimator {
     double range_m;
   };
   struct Track {
-    bool initialised = false;
     bool planar = true;  // 2D with known height
     double height_m = 0;
+    bool initialised = false;
     CvFilter<2> f2;
     CvFilter<3> f3;
     utime_t filter_utime = 0;

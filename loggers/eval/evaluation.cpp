@@ -57,6 +57,7 @@ std::vector<ErrorRow> Evaluator::rows() const {
     row.tag = key.second;
     std::vector<double> h;
     double sum = 0, sum_sq = 0, sum_sq_v = 0;
+    size_t count_v = 0;
     for (const auto& e : est) {
       double x, y, z;
       if (!truth_at(row.tag, e.utime, x, y, z)) continue;
@@ -66,14 +67,18 @@ std::vector<ErrorRow> Evaluator::rows() const {
       h.push_back(eh);
       sum += eh;
       sum_sq += eh * eh;
-      sum_sq_v += std::isfinite(ev) ? ev * ev : 0.0;
+      if (std::isfinite(ev)) {
+        sum_sq_v += ev * ev;
+        ++count_v;
+      }
     }
     row.count = h.size();
     if (row.count > 0) {
       const double n = static_cast<double>(row.count);
       row.mean_h = sum / n;
       row.rmse_h = std::sqrt(sum_sq / n);
-      row.rmse_v = std::sqrt(sum_sq_v / n);
+      row.rmse_v = count_v ? std::sqrt(sum_sq_v / static_cast<double>(count_v))
+                           : std::numeric_limits<double>::quiet_NaN();
       row.median_h = percentile(h, 50);
       row.p95_h = percentile(h, 95);
       row.max_h = h.back();

@@ -16,7 +16,8 @@ struct ErrorRow {
   std::string channel;
   std::string tag;
   size_t count = 0;
-  double mean_h = 0, rmse_h = 0, median_h = 0, p95_h = 0, max_h = 0, rmse_v = 0;
+  double mean_h = 0, rmse_h = 0, median_h = 0, p95_h = 0, max_h = 0;
+  double rmse_v = 0;  // over estimates with a finite height; NaN when none has one
 };
 
 // Percentile p in [0, 100] of `values` with linear interpolation between order statistics

@@ -60,10 +60,16 @@ int main(int argc, char** argv) {
   if (!ips::parse_command_line(app, opts, argc, argv, rc)) return rc;
 
   std::error_code ec;
-  if (!std::filesystem::is_regular_file(log_path, ec)) {
+  const auto status = std::filesystem::status(log_path, ec);
+  if (!std::filesystem::exists(status)) {
     ips::print_fatal("ips-eval", "cannot read log '" + log_path + "': no such file");
     return 2;
   }
+  if (!std::filesystem::is_regular_file(status)) {
+    ips::print_fatal("ips-eval", "cannot read log '" + log_path + "': not a regular file");
+    return 2;
+  }
+  const auto file_size = std::filesystem::file_size(log_path, ec);
   lcm::LogFile log(log_path, "r");
   if (!log.good()) {
     ips::print_fatal("ips-eval", "cannot open log '" + log_path + "'");
@@ -73,7 +79,9 @@ int main(int argc, char** argv) {
   ips::eval::Evaluator ev;
   int64_t events = 0, poses = 0, truth = 0;
   std::set<std::string> skipped_channels;
+  long read_up_to = 0;
   while (const lcm::LogEvent* e = log.readNextEvent()) {
+    read_up_to = std::ftell(log.getFilePtr());
     ++events;
     ips::pose_t m;
     // Only pose_t decodes here: the fingerprint check rejects every other type.
@@ -88,6 +96,17 @@ int main(int argc, char** argv) {
       ev.add_estimate(e->channel, m);
       ++poses;
     }
+  }
+  // liblcm stops at the first event it cannot read (a log cut short, or garbage): say so.
+  if (file_size > 0 && events == 0) {
+    ips::print_fatal("ips-eval", "'" + log_path + "' is not an LCM log (no readable event)");
+    return 2;
+  }
+  if (static_cast<uintmax_t>(read_up_to) < file_size) {
+    std::fprintf(stderr,
+                 "ips-eval: warning: %s: read %lld events, then stopped at byte %ld of %ju (the "
+                 "log is cut short or damaged there); scoring what was read\n",
+                 log_path.c_str(), static_cast<long long>(events), read_up_to, file_size);
   }
   const auto rows = ev.rows();
   if (json) {
@@ -110,6 +129,11 @@ int main(int argc, char** argv) {
     std::printf("%-14s %-10s %7s %8s %8s %8s %8s %8s %8s\n", "channel", "tag", "count", "mean_h",
                 "rmse_h", "median_h", "p95_h", "max_h", "rmse_v");
     for (const auto& r : rows) {
+      if (r.count == 0) {  // no truth around any estimate: no numbers, rather than zeros
+        std::printf("%-14s %-10s %7zu %8s %8s %8s %8s %8s %8s\n", printable(r.channel).c_str(),
+                    printable(r.tag).c_str(), r.count, "-", "-", "-", "-", "-", "-");
+        continue;
+      }
       std::printf("%-14s %-10s %7zu %8.3f %8.3f %8.3f %8.3f %8.3f %8.3f\n",
                   printable(r.channel).c_str(), printable(r.tag).c_str(), r.count, r.mean_h,
                   r.rmse_h, r.median_h, r.p95_h, r.max_h, r.rmse_v);

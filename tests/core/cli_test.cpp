@@ -41,6 +41,14 @@ TEST(Cli, MalformedChannelOverrideIsAnError) {
   EXPECT_FALSE(go_on);
 }
 
+TEST(Cli, UnknownChannelKindIsAnError) {
+  CommonOptions opts;
+  bool go_on = true;
+  testing::internal::CaptureStderr();
+  EXPECT_EQ(parse({"--channel", "POSE_UBW=X"}, opts, go_on), 2);
+  EXPECT_EQ(testing::internal::GetCapturedStderr().rfind("prog: error: --channel: unknown kind 'POSE_UBW' (UWB_RANGE, ", 0), 0u);
+}
+
 TEST(Cli, UnknownLogLevelIsAnError) {
   CommonOptions opts;
   bool go_on = true;

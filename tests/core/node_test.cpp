@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <ips/pose_t.hpp>
+#include <ips/site_t.hpp>
 #include <ips/uwb_range_t.hpp>
 
 #include "core/lcm_url.hpp"
@@ -51,6 +52,43 @@ TEST(Node, WrongTypeOnChannelIsAParseErrorNotACrash) {
   EXPECT_EQ(calls, 0);
   EXPECT_EQ(node.counters().msgs_in, 2);
   EXPECT_EQ(node.counters().parse_errors, 2);
+}
+
+// lcm-gen 1.3.1's decoders threw std::length_error on a string length of 0 and allocated for any
+// array count before checking it (found by fuzzing); lcmtypes/harden_generated.cmake fixes both.
+TEST(DecodeMessage, ZeroOrNegativeStringLengthIsADecodeErrorNotAThrow) {
+  uwb_range_t m{};
+  m.source = "sim";
+  std::vector<uint8_t> buf(static_cast<size_t>(m.getEncodedSize()));
+  m.encode(buf.data(), 0, static_cast<int>(buf.size()));
+  // Layout: 8-byte fingerprint, 8-byte utime, then the big-endian int32 length of `source`.
+  for (uint8_t b : {uint8_t{0x00}, uint8_t{0xff}}) {
+    std::vector<uint8_t> bad = buf;
+    bad[16] = bad[17] = bad[18] = bad[19] = b;  // length 0, then -1
+    uwb_range_t out;
+    EXPECT_FALSE(decode_message(out, bad.data(), bad.size()));
+  }
+  uwb_range_t ok;
+  EXPECT_TRUE(decode_message(ok, buf.data(), buf.size()));
+  EXPECT_EQ(ok.source, "sim");
+}
+
+TEST(DecodeMessage, HugeArrayCountIsRejectedBeforeAllocating) {
+  site_t s{};
+  s.source = "x";
+  s.name = "n";
+  s.site_yaml = "y";
+  std::vector<uint8_t> buf(static_cast<size_t>(s.getEncodedSize()));
+  s.encode(buf.data(), 0, static_cast<int>(buf.size()));
+  // fingerprint 8, utime 8, source (4 + 2), name (4 + 2), then num_anchors.
+  const size_t at = 8 + 8 + 6 + 6;
+  for (uint8_t b : {uint8_t{0x7f}, uint8_t{0xff}}) {
+    std::vector<uint8_t> bad = buf;
+    bad[at] = b;
+    bad[at + 1] = bad[at + 2] = bad[at + 3] = 0xff;  // INT32_MAX, then -1
+    site_t out;
+    EXPECT_FALSE(decode_message(out, bad.data(), bad.size()));
+  }
 }
 
 TEST(Node, HealthReportsCountersAndErrors) {

@@ -83,6 +83,17 @@ TEST(SiteErrors, UnknownKind) {
             "site.yaml:2: anchors[0].kind: unknown kind 'lidar' (uwb, uwb_tdoa, ble_aoa)");
 }
 
+TEST(SiteErrors, MisspeltFieldIsAnErrorNotADefault) {
+  EXPECT_EQ(error_of("anchors:\n  - {id: A1, position: [0, 0, 0]}\ntags:\n  - {id: T1, heigth_m: 1.2}\n"),
+            "site.yaml:4: tags[0].heigth_m: unknown field (known: id, height_m)");
+}
+
+TEST(SiteErrors, EmptyTagIdAndDuplicateStation) {
+  EXPECT_EQ(error_of("anchors: []\ntags:\n  - {id: ''}\n"), "site.yaml:3: tags[0].id: must not be empty");
+  EXPECT_EQ(error_of("anchors:\n  - {id: A1, position: [0, 0, 0]}\nbaro_stations:\n  - {id: A1, position: [0, 0, 0]}\n"),
+            "site.yaml:4: baro_stations[0].id: duplicate id 'A1'");
+}
+
 TEST(SiteErrors, NotAMap) {
   EXPECT_EQ(error_of("- 1\n- 2\n"), "site.yaml:1: expected a site map (name, anchors, tags)");
 }

@@ -165,6 +165,41 @@ TEST(TwrEstimator, LateRangesBeyondToleranceAreDropped) {
   EXPECT_EQ(est.stats().dropped_late, 1);
 }
 
+TEST(TwrEstimator, ClockStepBackRestartsTheTrackInsteadOfDroppingForever) {
+  const Site site = square_site(1.2);
+  std::vector<pose_t> out;
+  TwrEstimator est([&](const pose_t& p) { out.push_back(p); });
+  est.set_site(site);
+  const Eigen::Vector3d truth(3.0, 5.0, 1.2);
+  auto feed = [&](utime_t t0, int epochs) {
+    utime_t t = t0;
+    for (int e = 0; e < epochs; ++e)
+      for (const auto& a : site.anchors) {
+        est.on_range(range_msg(t, a.id, (truth - a.position).norm()));
+        t += 25'000;
+      }
+  };
+  feed(1'000'000'000, 20);
+  // One range stamped an hour ahead (a bogus stamp), then the clock carries on as before.
+  est.on_range(range_msg(1'000'000'000 + 3'600'000'000LL, "A1", 1.0));
+  const size_t before = out.size();
+  feed(1'002'100'000, 20);
+  EXPECT_EQ(est.stats().time_resets, 1);
+  ASSERT_GT(out.size(), before + 5);
+  EXPECT_NEAR(out.back().position[0], 3.0, 1e-3);
+  EXPECT_NEAR(out.back().position[1], 5.0, 1e-3);
+}
+
+TEST(TwrEstimator, ImplausibleTimestampsAreInvalid) {
+  const Site site = square_site(1.2);
+  TwrEstimator est([](const pose_t&) {});
+  est.set_site(site);
+  est.on_range(range_msg(0, "A1", 3.0));
+  est.on_range(range_msg(-5, "A1", 3.0));
+  est.on_range(range_msg(INT64_MAX, "A1", 3.0));
+  EXPECT_EQ(est.stats().dropped_invalid, 3);
+}
+
 TEST(TwrEstimator, NoSiteNoOutput) {
   int published = 0;
   TwrEstimator est([&](const pose_t&) { ++published; });

@@ -80,6 +80,17 @@ TEST(Evaluator, DoesNotInterpolateAcrossTruthGaps) {
   EXPECT_EQ(ev.unmatched(), 1u);
 }
 
+TEST(Evaluator, VerticalErrorLeavesOutEstimatesWithoutHeight) {
+  Evaluator ev;
+  ev.add_truth(pose(0, "T", 0, 0, 1));
+  ev.add_truth(pose(1'000'000, "T", 0, 0, 1));
+  ev.add_estimate("P", pose(500'000, "T", 0, 0, 1.3));
+  ev.add_estimate("P", pose(600'000, "T", 0, 0, NAN));
+  auto r = ev.rows()[0];
+  EXPECT_EQ(r.count, 2u);
+  EXPECT_NEAR(r.rmse_v, 0.3, 1e-12);
+}
+
 TEST(Evaluator, OutOfOrderTruthIsSorted) {
   Evaluator ev;
   ev.add_truth(pose(1'000'000, "T", 1, 0, 0));
