@@ -5,6 +5,8 @@
 #include <iostream>
 
 #include "core/channels.hpp"
+#include "core/lcm_url.hpp"
+#include "core/yaml_fields.hpp"
 #include "core/logging.hpp"
 
 namespace ips {
@@ -41,6 +43,18 @@ void add_common_options(CLI::App& app, CommonOptions& opts, CommonFlags flags) {
 void print_fatal(const std::string& program, const std::string& what) {
   std::fprintf(stderr, "%s: error: %s\n", program.c_str(), what.c_str());
   std::fflush(stderr);
+}
+
+int run_reporting_errors(const std::string& program, const std::function<int()>& body) {
+  try {
+    return body();
+  } catch (const ConfigError& e) {
+    print_fatal(program, e.what());
+    return 2;
+  } catch (const LcmOpenError& e) {
+    print_fatal(program, e.what());
+    return 1;
+  }
 }
 
 bool parse_command_line(CLI::App& app, const CommonOptions& opts, int argc, char** argv,

@@ -2,6 +2,7 @@
 // The command line every program shares: --lcm-url, --site, --channel KIND=NAME, --log-level,
 // --help (CLI11). The same flag means the same thing in every program.
 #include <CLI/CLI.hpp>
+#include <functional>
 #include <map>
 #include <string>
 #include <vector>
@@ -36,5 +37,10 @@ bool parse_command_line(CLI::App& app, const CommonOptions& opts, int argc, char
 
 // Prints "<program>: error: <what>" on stderr (one line, for start-up failures).
 void print_fatal(const std::string& program, const std::string& what);
+
+// Runs a program's body. A configuration error escaping it (ConfigError: bad site or scenario
+// file) ends the program with one error line and status 2; an LCM URL that cannot be opened
+// (LcmOpenError) with one line and status 1.
+int run_reporting_errors(const std::string& program, const std::function<int()>& body);
 
 }  // namespace ips

@@ -123,7 +123,7 @@ int main(int argc, char** argv) {
     ips::print_fatal("ips-sim", "--scenario is required (built-in: lab; see --list-scenarios)");
     return 2;
   }
-  try {
+  return ips::run_reporting_errors("ips-sim", [&] {
     ips::sim::Scenario sc = ips::sim::load_scenario(scenario_name);
     if (duration > 0) sc.duration_s = duration;
     if (!out.empty()) {
@@ -133,11 +133,5 @@ int main(int argc, char** argv) {
     ips::Node node("ips-sim", opts);
     ips::sim::Simulator sim(std::move(sc), seed, start_utime.value_or(ips::wall_utime_now()));
     return publish_live(sim, node, speed);
-  } catch (const ips::ConfigError& e) {
-    ips::print_fatal("ips-sim", e.what());
-    return 2;
-  } catch (const ips::LcmOpenError& e) {
-    ips::print_fatal("ips-sim", e.what());
-    return 1;
-  }
+  });
 }

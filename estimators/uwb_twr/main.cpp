@@ -16,7 +16,7 @@ int main(int argc, char** argv) {
   ips::add_common_options(app, opts);
   int rc = 0;
   if (!ips::parse_command_line(app, opts, argc, argv, rc)) return rc;
-  try {
+  return ips::run_reporting_errors("ips-uwb-twr", [&] {
     ips::Node node("ips-uwb-twr", opts);
     const std::string out_channel = opts.channel(ips::channel::kPoseUwb);
     ips::uwb_twr::TwrEstimator est(
@@ -37,11 +37,5 @@ int main(int argc, char** argv) {
           }
         });
     return node.run();
-  } catch (const ips::ConfigError& e) {
-    ips::print_fatal("ips-uwb-twr", e.what());
-    return 2;
-  } catch (const ips::LcmOpenError& e) {
-    ips::print_fatal("ips-uwb-twr", e.what());
-    return 1;
-  }
+  });
 }

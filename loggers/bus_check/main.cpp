@@ -20,7 +20,7 @@ int main(int argc, char** argv) {
   app.add_option("--timeout", timeout_s, "seconds to wait")->capture_default_str();
   int rc = 0;
   if (!ips::parse_command_line(app, opts, argc, argv, rc)) return rc;
-  try {
+  return ips::run_reporting_errors("ips-bus-check", [&] {
     ips::Node node("ips-bus-check", opts);
     const std::string channel = "IPS_BUS_CHECK_" + std::to_string(getpid());
     bool received = false;
@@ -51,8 +51,5 @@ int main(int argc, char** argv) {
                  "(see docs/networking.md)\n",
                  timeout_s, ips::effective_lcm_url(opts.lcm_url).c_str());
     return 1;
-  } catch (const ips::LcmOpenError& e) {
-    ips::print_fatal("ips-bus-check", e.what());
-    return 1;
-  }
+  });
 }

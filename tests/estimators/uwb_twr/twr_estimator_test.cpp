@@ -99,18 +99,24 @@ uwb_range_t range_msg(utime_t t, const std::string& anchor, double r) {
   return m;
 }
 
+// Noise-free ranges from a static tag to every anchor in turn, 25 ms apart.
+void feed_exact_ranges(TwrEstimator& est, const Site& site, const Eigen::Vector3d& truth,
+                       utime_t t0, int epochs) {
+  utime_t t = t0;
+  for (int e = 0; e < epochs; ++e)
+    for (const auto& a : site.anchors) {
+      est.on_range(range_msg(t, a.id, (truth - a.position).norm()));
+      t += 25'000;
+    }
+}
+
 TEST(TwrEstimator, ExactRangesToStaticTagGiveExactPosition) {
   const Site site = square_site(1.2);
   std::vector<pose_t> out;
   TwrEstimator est([&](const pose_t& p) { out.push_back(p); });
   est.set_site(site);
   const Eigen::Vector3d truth(3.0, 5.0, 1.2);
-  utime_t t = 1'000'000;
-  for (int epoch = 0; epoch < 50; ++epoch)
-    for (const auto& a : site.anchors) {
-      est.on_range(range_msg(t, a.id, (truth - a.position).norm()));
-      t += 25'000;
-    }
+  feed_exact_ranges(est, site, truth, 1'000'000, 50);
   ASSERT_FALSE(out.empty());
   const pose_t& last = out.back();
   EXPECT_NEAR(last.position[0], 3.0, 1e-3);
@@ -128,12 +134,7 @@ TEST(TwrEstimator, ThreeDimensionalWhenTagHeightUnknown) {
   TwrEstimator est([&](const pose_t& p) { out.push_back(p); });
   est.set_site(site);
   const Eigen::Vector3d truth(6.0, 2.0, 0.8);
-  utime_t t = 1'000'000;
-  for (int epoch = 0; epoch < 100; ++epoch)
-    for (const auto& a : site.anchors) {
-      est.on_range(range_msg(t, a.id, (truth - a.position).norm()));
-      t += 25'000;
-    }
+  feed_exact_ranges(est, site, truth, 1'000'000, 100);
   ASSERT_FALSE(out.empty());
   EXPECT_FALSE(out.back().status & pose_t::STATUS_2D);
   EXPECT_NEAR(out.back().position[0], 6.0, 0.01);
@@ -171,19 +172,11 @@ TEST(TwrEstimator, ClockStepBackRestartsTheTrackInsteadOfDroppingForever) {
   TwrEstimator est([&](const pose_t& p) { out.push_back(p); });
   est.set_site(site);
   const Eigen::Vector3d truth(3.0, 5.0, 1.2);
-  auto feed = [&](utime_t t0, int epochs) {
-    utime_t t = t0;
-    for (int e = 0; e < epochs; ++e)
-      for (const auto& a : site.anchors) {
-        est.on_range(range_msg(t, a.id, (truth - a.position).norm()));
-        t += 25'000;
-      }
-  };
-  feed(1'000'000'000, 20);
+  feed_exact_ranges(est, site, truth, 1'000'000'000, 20);
   // One range stamped an hour ahead (a bogus stamp), then the clock carries on as before.
   est.on_range(range_msg(1'000'000'000 + 3'600'000'000LL, "A1", 1.0));
   const size_t before = out.size();
-  feed(1'002'100'000, 20);
+  feed_exact_ranges(est, site, truth, 1'002'100'000, 20);
   EXPECT_EQ(est.stats().time_resets, 1);
   ASSERT_GT(out.size(), before + 5);
   EXPECT_NEAR(out.back().position[0], 3.0, 1e-3);
