@@ -2,6 +2,8 @@
 // Default channel names (docs/channels.md). Every program can rename any of them with
 // --channel KIND=NAME.
 
+#include <string>
+
 namespace ips::channel {
 
 inline constexpr const char* kUwbRange = "UWB_RANGE";
@@ -22,6 +24,16 @@ inline constexpr const char* kStep = "STEP";
 inline constexpr const char* kAltitude = "ALTITUDE";
 inline constexpr const char* kClock = "CLOCK";
 inline constexpr const char* kPoseFused = "POSE_FUSED";
+
+// A channel name we accept: 1 to 63 of [A-Za-z0-9_]. LCM subscribes by regular expression and
+// limits names to 63 characters, so anything else would be matched wrongly or not sent at all.
+inline bool valid_channel_name(const std::string& name) {
+  if (name.empty() || name.size() > 63) return false;
+  for (char c : name)
+    if (!((c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '_'))
+      return false;
+  return true;
+}
 
 // Every kind, for checking --channel KIND=NAME.
 inline constexpr const char* kAllKinds[] = {

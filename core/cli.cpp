@@ -95,6 +95,12 @@ bool parse_command_line(CLI::App& app, const CommonOptions& opts, int argc, char
       exit_code = 2;
       return false;
     }
+    if (!channel::valid_channel_name(o.substr(eq + 1))) {
+      print_fatal(app.get_name(), "--channel: bad channel name '" + o.substr(eq + 1) +
+                                      "' (1 to 63 letters, digits or _)");
+      exit_code = 2;
+      return false;
+    }
   }
   exit_code = 0;
   return true;

@@ -51,6 +51,7 @@ MultilaterationResult multilaterate_lm(std::span<const RangeObservation> obs,
   Eigen::MatrixXd J;
   Eigen::VectorXd r;
   double cost = residuals(obs, p, dims, &J, &r);
+  bool converged = false;
   for (out.iterations = 1; out.iterations <= opts.max_iterations; ++out.iterations) {
     Eigen::MatrixXd A = J.transpose() * J;
     Eigen::VectorXd g = J.transpose() * r;
@@ -65,15 +66,25 @@ MultilaterationResult multilaterate_lm(std::span<const RangeObservation> obs,
       p = candidate;
       cost = residuals(obs, p, dims, &J, &r);
       lambda /= opts.lambda_factor;
-      if (step.norm() < opts.convergence_m) break;
+      if (step.norm() < opts.convergence_m) {
+        converged = true;
+        break;
+      }
     } else {
       lambda *= opts.lambda_factor;
-      if (lambda > 1e12) break;  // no descent direction left: at a minimum
+      if (lambda > 1e12) {  // no descent direction left: at a minimum
+        converged = true;
+        break;
+      }
     }
     if ((p - initial).norm() > opts.divergence_m) {
       out.failure = "diverged beyond " + std::to_string(opts.divergence_m) + " m";
       return out;
     }
+  }
+  if (!converged) {
+    out.failure = "did not converge in " + std::to_string(opts.max_iterations) + " iterations";
+    return out;
   }
   // A few undamped Gauss-Newton polish steps: LM stops at the 0.03 m step criterion.
   for (int k = 0; k < 3; ++k) {

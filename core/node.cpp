@@ -11,6 +11,7 @@
 
 #include "core/channels.hpp"
 #include "core/lcm_url.hpp"
+#include "core/text_escape.hpp"
 
 namespace ips {
 
@@ -28,36 +29,71 @@ Node::Node(std::string name, const CommonOptions& opts)
       lcm_(open_lcm(opts.lcm_url)),
       health_channel_(opts.channel(channel::kHealth)),
       host_(host_name()),
-      start_utime_(wall_utime_now()) {
+      start_time_(std::chrono::steady_clock::now()) {
   // SIGINT/SIGTERM arrive through a signalfd so that the loop ends cleanly between messages.
   sigset_t mask;
   sigemptyset(&mask);
   sigaddset(&mask, SIGINT);
   sigaddset(&mask, SIGTERM);
-  sigprocmask(SIG_BLOCK, &mask, nullptr);
+  sigprocmask(SIG_BLOCK, &mask, &old_sigmask_);
   signal_fd_ = signalfd(-1, &mask, SFD_CLOEXEC | SFD_NONBLOCK);
+  if (signal_fd_ < 0) {
+    sigprocmask(SIG_SETMASK, &old_sigmask_, nullptr);
+    throw LcmOpenError(std::string("signalfd: ") + std::strerror(errno));
+  }
+  // For udpm this sets up reception, including liblcm's multicast self-test: do it once, here,
+  // and fail loudly rather than run deaf.
+  lcm_fd_ = lcm_->getFileno();
+  if (lcm_fd_ < 0) {
+    close(signal_fd_);
+    sigprocmask(SIG_SETMASK, &old_sigmask_, nullptr);
+    throw LcmOpenError("LCM on '" + effective_lcm_url(opts.lcm_url) +
+                       "' cannot receive (its multicast self-test got nothing back); see "
+                       "docs/networking.md");
+  }
   // A closed pipe (e.g. `| head`) must not kill the process mid-write.
   signal(SIGPIPE, SIG_IGN);
   add_timer(1.0, [this] { publish_health(); });
 }
 
 Node::~Node() {
-  if (signal_fd_ >= 0) close(signal_fd_);
+  close(signal_fd_);
+  // Signals that arrived meanwhile stay pending and are delivered now, as if we had not been here.
+  sigprocmask(SIG_SETMASK, &old_sigmask_, nullptr);
+}
+
+void Node::publish_raw(const std::string& channel, const void* data, size_t size) {
+  if (size > UINT32_MAX || lcm_->publish(channel, data, static_cast<unsigned>(size)) != 0) {
+    ++counters_.drops;
+    report_error("channel " + channel + ": publish failed (" + std::to_string(size) + " bytes)");
+    return;
+  }
+  ++counters_.msgs_out;
 }
 
 void Node::subscribe_raw(const std::string& channel, RawHandler handler) {
   // Every message that reaches us is counted, decodable or not.
+  // Every message that reaches us is counted, decodable or not. An exception from a handler
+  // must not unwind through liblcm's C dispatch: it is counted and reported instead.
   handlers_.push_back([this, h = std::move(handler)](const lcm::ReceiveBuffer* rbuf,
                                                      const std::string& chan) {
     ++counters_.msgs_in;
-    h(rbuf, chan);
+    try {
+      h(rbuf, chan);
+    } catch (const std::exception& e) {
+      ++counters_.drops;
+      report_error("channel " + chan + ": handler failed: " + e.what());
+    }
   });
-  lcm_->subscribeFunction(
-      channel,
-      +[](const lcm::ReceiveBuffer* rbuf, const std::string& chan, RawHandler* h) {
-        (*h)(rbuf, chan);
-      },
-      &handlers_.back());
+  if (!lcm_->subscribeFunction(
+          channel,
+          +[](const lcm::ReceiveBuffer* rbuf, const std::string& chan, RawHandler* h) {
+            (*h)(rbuf, chan);
+          },
+          &handlers_.back())) {
+    handlers_.pop_back();
+    throw LcmOpenError("cannot subscribe to channel '" + channel + "'");
+  }
 }
 
 void Node::add_timer(double period_s, std::function<void()> fn) {
@@ -85,7 +121,7 @@ bool Node::spin_once(int timeout_ms) {
     auto until = std::chrono::ceil<std::chrono::milliseconds>(t.next - now).count();
     if (until < timeout_ms) timeout_ms = static_cast<int>(std::max<int64_t>(0, until));
   }
-  pollfd fds[2] = {{lcm_->getFileno(), POLLIN, 0}, {signal_fd_, POLLIN, 0}};
+  pollfd fds[2] = {{lcm_fd_, POLLIN, 0}, {signal_fd_, POLLIN, 0}};
   int n = poll(fds, 2, timeout_ms);
   if (n < 0 && errno != EINTR) {
     report_error(std::string("poll: ") + std::strerror(errno));
@@ -100,6 +136,12 @@ bool Node::spin_once(int timeout_ms) {
   }
   if (n > 0 && (fds[0].revents & POLLIN)) {
     if (lcm_->handle() != 0) report_error("lcm handle() failed");
+  } else if (n > 0 && (fds[0].revents & (POLLERR | POLLHUP | POLLNVAL))) {
+    // The LCM socket is gone: nothing more can arrive. Stop rather than spin.
+    state_ = health_t::STATE_ERROR;
+    report_error("LCM socket failed; stopping");
+    failed_ = true;
+    stopping_ = true;
   }
   dispatch_timers();
   return !stopping_;
@@ -110,13 +152,13 @@ int Node::run() {
   while (spin_once(1000)) {
   }
   publish_health();
-  return 0;
+  return failed_ ? 1 : 0;
 }
 
 void Node::report_error(const std::string& text) {
   last_error_ = text;
   if (state_ == health_t::STATE_OK) state_ = health_t::STATE_DEGRADED;
-  if (error_log_limit_.allow(wall_utime_now())) spdlog::warn("{}: {}", name_, text);
+  if (error_log_limit_.allow(wall_utime_now())) spdlog::warn("{}: {}", name_, printable(text));
 }
 
 void Node::publish_health() {
@@ -131,7 +173,9 @@ void Node::publish_health() {
   h.parse_errors = counters_.parse_errors;
   h.drops = counters_.drops;
   h.last_error = last_error_;
-  h.uptime_us = h.utime - start_utime_;
+  h.uptime_us = std::chrono::duration_cast<std::chrono::microseconds>(
+                    std::chrono::steady_clock::now() - start_time_)
+                    .count();
   lcm_->publish(health_channel_, &h);
 }
 

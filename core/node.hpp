@@ -7,6 +7,8 @@
 #include <functional>
 #include <ips/health_t.hpp>
 #include <lcm/lcm-cpp.hpp>
+#include <signal.h>
+
 #include <list>
 #include <memory>
 #include <stdexcept>
@@ -57,16 +59,25 @@ class Node {
   void subscribe(const std::string& channel,
                  std::function<void(const Msg&, const std::string& channel)> handler);
 
+  // Publishes; a message liblcm refuses (e.g. too large) is counted as a drop and reported.
   template <class Msg>
   void publish(const std::string& channel, const Msg& msg) {
-    lcm_->publish(channel, &msg);
-    ++counters_.msgs_out;
+    std::vector<uint8_t>& buf = publish_buffer_;
+    buf.resize(static_cast<size_t>(msg.getEncodedSize()));
+    if (msg.encode(buf.data(), 0, static_cast<int>(buf.size())) < 0) {
+      ++counters_.drops;
+      report_error("channel " + channel + ": cannot encode " + Msg::getTypeName());
+      return;
+    }
+    publish_raw(channel, buf.data(), buf.size());
   }
+  void publish_raw(const std::string& channel, const void* data, size_t size);
 
   // Calls `fn` every `period_s` seconds of monotonic time (first call one period from now).
   void add_timer(double period_s, std::function<void()> fn);
 
-  // Runs the loop until SIGINT/SIGTERM or stop(). Returns the process exit status (0).
+  // Runs the loop until SIGINT/SIGTERM or stop(). Returns the process exit status: 0, or 1 when
+  // the LCM socket failed.
   int run();
   // Handles what is pending now, waiting at most `timeout_ms`; false once stopped.
   bool spin_once(int timeout_ms);
@@ -96,12 +107,16 @@ class Node {
   std::vector<Timer> timers_;
   NodeCounters counters_;
   int signal_fd_ = -1;
+  int lcm_fd_ = -1;
+  sigset_t old_sigmask_;
+  std::vector<uint8_t> publish_buffer_;
   bool stopping_ = false;
   int8_t state_ = health_t::STATE_OK;
   std::string last_error_;
   std::string health_channel_;
   std::string host_;
-  utime_t start_utime_;
+  std::chrono::steady_clock::time_point start_time_;
+  bool failed_ = false;
   RateLimiter error_log_limit_;
 };
 
@@ -111,7 +126,7 @@ void Node::subscribe(const std::string& channel,
   subscribe_raw(channel, [this, handler = std::move(handler)](const lcm::ReceiveBuffer* rbuf,
                                                               const std::string& chan) {
     Msg msg;
-    if (!decode_message(msg, rbuf->data, rbuf->data_size)) {
+    if (!decode_message(msg, rbuf->data, static_cast<size_t>(rbuf->data_size))) {
       ++counters_.parse_errors;
       report_error("channel " + chan + ": message does not decode as " + Msg::getTypeName());
       return;

@@ -46,6 +46,7 @@ Site parse_site(const YamlField& root) {
     if (anchor.kind != "uwb" && anchor.kind != "uwb_tdoa" && anchor.kind != "ble_aoa")
       a["kind"].fail("unknown kind '" + anchor.kind + "' (uwb, uwb_tdoa, ble_aoa)");
     anchor.position = a.required("position").as_vec3();
+    if (anchor.position.cwiseAbs().maxCoeff() > 1e6) a["position"].fail("must be within 1e6 m");
     if (a["orientation_deg"].defined())
       anchor.orientation_rad = a["orientation_deg"].as_vec3() * kDegToRad;
     anchor.enabled = a.get_bool("enabled", true);

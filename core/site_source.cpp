@@ -5,6 +5,7 @@
 #include <spdlog/spdlog.h>
 
 #include "core/channels.hpp"
+#include "core/text_escape.hpp"
 
 namespace ips {
 
@@ -25,7 +26,8 @@ void provide_site(Node& node, std::function<void(const Site&)> on_site) {
                              Site site = site_from_msg(msg);
                              *last_text = msg.site_yaml;
                              spdlog::info("{}: site '{}' from {} ({} anchors)", node.name(),
-                                          site.name, msg.source, site.anchors.size());
+                                          printable(site.name), printable(msg.source),
+                                          site.anchors.size());
                              on_site(site);
                              node.set_state(health_t::STATE_OK);
                            } catch (const SiteError& e) {

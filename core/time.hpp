@@ -1,6 +1,7 @@
 #pragma once
 // Microsecond timestamps (utime) as carried by every message.
 #include <chrono>
+#include <cmath>
 #include <cstdint>
 
 namespace ips {
@@ -8,7 +9,16 @@ namespace ips {
 using utime_t = int64_t;
 
 constexpr double utime_to_s(utime_t us) { return static_cast<double>(us) * 1e-6; }
-constexpr utime_t s_to_utime(double s) { return static_cast<utime_t>(s * 1e6 + (s >= 0 ? 0.5 : -0.5)); }
+// Seconds to microseconds, rounded, saturating at +-4e18 us (and NaN to 0) so that no value from
+// a file or the wire can overflow the conversion.
+inline utime_t s_to_utime(double s) {
+  constexpr double kMaxUs = 4e18;
+  const double us = s * 1e6;
+  if (std::isnan(us)) return 0;
+  if (us >= kMaxUs) return static_cast<utime_t>(kMaxUs);
+  if (us <= -kMaxUs) return -static_cast<utime_t>(kMaxUs);
+  return static_cast<utime_t>(us + (us >= 0 ? 0.5 : -0.5));
+}
 
 // A utime an estimator can do arithmetic on: positive, and small enough (< year 2096) that the
 // difference of two never overflows. Anything else off the wire is invalid input.

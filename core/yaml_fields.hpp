@@ -19,6 +19,14 @@ class YamlField {
  public:
   YamlField(YAML::Node node, std::string origin, std::string path)
       : node_(std::move(node)), origin_(std::move(origin)), path_(std::move(path)) {}
+  YamlField(const YamlField&) = default;
+  // YAML::Node's operator= writes through to the node it refers to; a YamlField must rebind.
+  YamlField& operator=(const YamlField& other) {
+    node_.reset(other.node_);
+    origin_ = other.origin_;
+    path_ = other.path_;
+    return *this;
+  }
 
   const YAML::Node& node() const { return node_; }
   const std::string& path() const { return path_; }

@@ -11,8 +11,26 @@ foreach(h ${HEADERS})
   file(READ ${h} text)
   string(REGEX REPLACE "if\\(__([A-Za-z0-9_]+)_len__ > maxlen - pos\\) return -1;"
          "if(__\\1_len__ < 1 || __\\1_len__ > maxlen - pos) return -1;" text "${text}")
-  string(REGEX REPLACE "\n( *)this->([A-Za-z0-9_]+)\\.resize\\(this->([A-Za-z0-9_]+)\\);"
-         "\n\\1if(this->\\3 < 0 || this->\\3 > maxlen - pos) return -1;\n\\1this->\\2.resize(this->\\3);"
+  # Elements of string arrays use a variable named __elem_len.
+  string(REGEX REPLACE "if\\(__elem_len > maxlen - pos\\) return -1;"
+         "if(__elem_len < 1 || __elem_len > maxlen - pos) return -1;" text "${text}")
+  # Any resize to a count off the wire, including inner dimensions (this->a[i].resize(this->n)).
+  string(REGEX REPLACE "\n( *)this->([A-Za-z0-9_]+(\\[[a-z0-9]+\\])*)\\.resize\\(this->([A-Za-z0-9_]+)\\);"
+         "\n\\1if(this->\\4 < 0 || this->\\4 > maxlen - pos) return -1;\n\\1this->\\2.resize(this->\\4);"
          text "${text}")
+  # Refuse to build with a decoder left unguarded (a new lcm-gen output shape, say).
+  string(REGEX MATCHALL "\\.assign\\(" assigns "${text}")
+  string(REGEX MATCHALL "< 1 \\|\\| __" string_guards "${text}")
+  string(REGEX MATCHALL "\\.resize\\(" resizes "${text}")
+  string(REGEX MATCHALL "< 0 \\|\\| this->" array_guards "${text}")
+  list(LENGTH assigns n_assign)
+  list(LENGTH string_guards n_string_guard)
+  list(LENGTH resizes n_resize)
+  list(LENGTH array_guards n_array_guard)
+  if(NOT n_assign EQUAL n_string_guard OR NOT n_resize EQUAL n_array_guard)
+    message(FATAL_ERROR "harden_generated.cmake: ${h}: ${n_assign} string decodes with "
+                        "${n_string_guard} guards, ${n_resize} array resizes with "
+                        "${n_array_guard} guards; extend the patterns for this lcm-gen output")
+  endif()
   file(WRITE ${h} "${text}")
 endforeach()

@@ -47,6 +47,11 @@ int write_log(ips::sim::Simulator& sim, const ips::CommonOptions& opts, const st
     }
   }
   if (tty) std::fprintf(stderr, "\r");
+  // The log's last buffer is written at close: check it here, not in LogFile's silent destructor.
+  if (std::fflush(log.getFilePtr()) != 0 || std::ferror(log.getFilePtr())) {
+    ips::print_fatal("ips-sim", "write to '" + path + "' failed (disk full?)");
+    return 1;
+  }
   spdlog::info("ips-sim: wrote {} messages ({:.0f} s of scenario '{}') to {}", count, span * 1e-6,
                sim.scenario().name, path);
   return 0;
@@ -70,9 +75,7 @@ int publish_live(ips::sim::Simulator& sim, ips::Node& node, double speed) {
       if (!node.spin_once(static_cast<int>(std::min<int64_t>(left, 100)))) return 0;
     }
     if (!node.spin_once(0)) return 0;
-    node.lcm().publish(node.options().channel(ev.kind), ev.data.data(),
-                       static_cast<unsigned>(ev.data.size()));
-    ++node.counters().msgs_out;
+    node.publish_raw(node.options().channel(ev.kind), ev.data.data(), ev.data.size());
     ++count;
   }
   node.publish_health();
@@ -99,14 +102,14 @@ int main(int argc, char** argv) {
       ->type_name("NAME|FILE");
   app.add_option("--seed", seed, "random seed")->capture_default_str();
   app.add_option("--duration", duration, "seconds to simulate (default: the scenario's)")
-      ->check(CLI::PositiveNumber);
+      ->check(CLI::Range(1e-3, 1e7));
   auto* out_opt =
       app.add_option("--out", out, "write a standard LCM log as fast as possible instead of "
                                    "publishing")
           ->type_name("FILE.lcm");
   auto* speed_opt = app.add_option("--speed", speed, "live mode: playback speed factor")
                         ->capture_default_str()
-                        ->check(CLI::PositiveNumber);
+                        ->check(CLI::Range(1e-3, 1e4));
   out_opt->excludes(speed_opt);
   if (auto* url_opt = app.get_option_no_throw("--lcm-url")) out_opt->excludes(url_opt);
   app.add_option("--start-utime", start_utime,
@@ -118,6 +121,10 @@ int main(int argc, char** argv) {
   if (list) {
     for (const auto& n : ips::sim::builtin_scenario_names()) std::printf("%s\n", n.c_str());
     return 0;
+  }
+  if (start_utime && !ips::plausible_utime(*start_utime)) {
+    ips::print_fatal("ips-sim", "--start-utime: must be a positive utime before the year 2096");
+    return 2;
   }
   if (scenario_name.empty()) {
     ips::print_fatal("ips-sim", "--scenario is required (built-in: lab; see --list-scenarios)");

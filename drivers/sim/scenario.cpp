@@ -19,7 +19,7 @@ UwbTwrModel parse_uwb_twr(const YamlField& f) {
                 "nlos_bias_min_m", "nlos_bias_max_m", "loss_probability", "max_range_m"});
   m.enabled = f.get_bool("enabled", true);
   m.rate_hz = f.get_double("rate_hz", m.rate_hz);
-  if (!(m.rate_hz > 0 && m.rate_hz <= 1000)) f["rate_hz"].fail("must be in (0, 1000]");
+  if (!(m.rate_hz >= 0.01 && m.rate_hz <= 1000)) f["rate_hz"].fail("must be in [0.01, 1000]");
   m.noise_sigma_m = f.get_double("noise_sigma_m", m.noise_sigma_m);
   if (m.noise_sigma_m < 0) f["noise_sigma_m"].fail("must not be negative");
   m.bias_m = f.get_double("bias_m", m.bias_m);
@@ -43,9 +43,10 @@ Scenario parse_scenario_text(const std::string& text, const std::string& origin)
   Scenario sc;
   sc.name = root.get_string("name", std::filesystem::path(origin).stem().string());
   sc.duration_s = root.get_double("duration_s", sc.duration_s);
-  if (!(sc.duration_s > 0)) root["duration_s"].fail("must be positive");
+  if (!(sc.duration_s > 0 && sc.duration_s <= 1e7)) root["duration_s"].fail("must be in (0, 1e7]");
   sc.site_period_s = root.get_double("site_period_s", sc.site_period_s);
-  if (!(sc.site_period_s > 0)) root["site_period_s"].fail("must be positive");
+  if (!(sc.site_period_s >= 0.1 && sc.site_period_s <= 3600))
+    root["site_period_s"].fail("must be in [0.1, 3600]");
   sc.site = parse_site(root.required("site"));
 
   auto trajs = root.required("trajectories");
@@ -64,7 +65,9 @@ Scenario parse_scenario_text(const std::string& text, const std::string& origin)
     for (size_t k = 0; k < wps.size(); ++k) points.push_back(wps[k].as_vec2());
     double height = t.get_double("height_m", std::isnan(site_tag->height_m) ? 1.2 : site_tag->height_m);
     double speed = t.get_double("speed_mps", 1.0);
-    if (!(speed > 0)) t["speed_mps"].fail("must be positive");
+    if (!(speed > 0 && speed <= 100)) t["speed_mps"].fail("must be in (0, 100]");
+    for (size_t k = 0; k < points.size(); ++k)
+      if (points[k].cwiseAbs().maxCoeff() > 1e6) wps[k].fail("coordinates must be within 1e6 m");
     try {
       sc.trajectories.push_back({tag, WaypointTrajectory(points, speed, height, t.get_bool("loop", true))});
     } catch (const std::invalid_argument& e) {
@@ -77,7 +80,8 @@ Scenario parse_scenario_text(const std::string& text, const std::string& origin)
   sensors.check_keys({"truth", "uwb_twr"});
   sensors["truth"].check_keys({"rate_hz"});
   sc.truth.rate_hz = sensors["truth"].get_double("rate_hz", sc.truth.rate_hz);
-  if (!(sc.truth.rate_hz > 0)) sensors["truth"]["rate_hz"].fail("must be positive");
+  if (!(sc.truth.rate_hz >= 0.01 && sc.truth.rate_hz <= 1000))
+    sensors["truth"]["rate_hz"].fail("must be in [0.01, 1000]");
   sc.uwb_twr = parse_uwb_twr(sensors["uwb_twr"]);
   return sc;
 }

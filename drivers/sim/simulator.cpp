@@ -18,7 +18,16 @@ void encode_into(const Msg& msg, std::vector<uint8_t>& out) {
   msg.encode(out.data(), 0, static_cast<int>(out.size()));
 }
 
-int64_t period_us(double rate_hz) { return std::max<int64_t>(1, std::llround(1e6 / rate_hz)); }
+// Rates are validated to [0.01, 1000] Hz by the scenario parser; the clamp keeps any period >= 1 us.
+int64_t period_us(double rate_hz) { return std::max<utime_t>(1, s_to_utime(1.0 / rate_hz)); }
+
+// FNV-1a: a stable hash of a source's name, so that each source's noise stream depends on what
+// it is (e.g. "UWB_RANGE T1 A3"), not on how many other sources there are.
+uint64_t stream_key(const std::string& name) {
+  uint64_t h = 14695981039346656037ULL;
+  for (unsigned char c : name) h = (h ^ c) * 1099511628211ULL;
+  return h;
+}
 }  // namespace
 
 Simulator::Simulator(Scenario scenario, uint64_t seed, utime_t start_utime)
@@ -26,13 +35,18 @@ Simulator::Simulator(Scenario scenario, uint64_t seed, utime_t start_utime)
       start_(start_utime),
       end_(start_utime + s_to_utime(sc_.duration_s)),
       range_seq_(sc_.trajectories.size(), 0) {
-  // Each source draws from its own stream so that one sensor's settings do not change another's
-  // noise.
-  uint64_t stream = 0;
-  auto make_rng = [&] { return std::mt19937_64(seed * 0x9E3779B97F4A7C15ULL + (++stream)); };
-  sources_.push_back({Kind::kSite, 0, 0, s_to_utime(sc_.site_period_s), 0, 0, make_rng()});
+  // Each source draws from its own stream, keyed by its name, so that adding a sensor, a tag or
+  // an anchor does not change the noise of the others.
+  auto make_rng = [&](const std::string& name) {
+    const uint64_t key = stream_key(name);
+    std::seed_seq seq{static_cast<uint32_t>(seed), static_cast<uint32_t>(seed >> 32),
+                      static_cast<uint32_t>(key), static_cast<uint32_t>(key >> 32)};
+    return std::mt19937_64(seq);
+  };
+  sources_.push_back({Kind::kSite, 0, 0, period_us(1.0 / sc_.site_period_s), 0, 0, make_rng("SITE")});
   for (size_t i = 0; i < sc_.trajectories.size(); ++i) {
-    sources_.push_back({Kind::kTruth, i, 0, period_us(sc_.truth.rate_hz), 0, 0, make_rng()});
+    sources_.push_back({Kind::kTruth, i, 0, period_us(sc_.truth.rate_hz), 0, 0,
+                        make_rng("TRUTH " + sc_.trajectories[i].tag_id)});
   }
   if (sc_.uwb_twr.enabled) {
     const int64_t p = period_us(sc_.uwb_twr.rate_hz);
@@ -45,7 +59,9 @@ Simulator::Simulator(Scenario scenario, uint64_t seed, utime_t start_utime)
     for (size_t i = 0; i < sc_.trajectories.size(); ++i)
       for (size_t a : anchors)
         sources_.push_back({Kind::kUwbRange, i, a, p, (slot++ * p) / std::max<int64_t>(1, slots) + 1000,
-                            0, make_rng()});
+                            0,
+                            make_rng("UWB_RANGE " + sc_.trajectories[i].tag_id + " " +
+                                     sc_.site.anchors[a].id)});
   }
 }
 

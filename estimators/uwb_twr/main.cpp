@@ -27,13 +27,15 @@ int main(int argc, char** argv) {
         opts.channel(ips::channel::kUwbRange), [&](const ips::uwb_range_t& m, const std::string&) {
           est.on_range(m);
           const auto& s = est.stats();
-          int64_t drops = s.dropped_invalid + s.dropped_unknown_anchor + s.dropped_late;
+          const int64_t drops = s.dropped_invalid + s.dropped_unknown_anchor + s.dropped_late +
+                                s.dropped_too_many_tags;
           if (drops != reported_drops) {
             node.counters().drops += drops - reported_drops;
             reported_drops = drops;
             node.report_error("dropped ranges: " + std::to_string(s.dropped_invalid) +
                               " invalid, " + std::to_string(s.dropped_unknown_anchor) +
-                              " unknown anchor, " + std::to_string(s.dropped_late) + " late");
+                              " unknown anchor, " + std::to_string(s.dropped_late) + " late, " +
+                              std::to_string(s.dropped_too_many_tags) + " beyond max_tags");
           }
         });
     return node.run();

@@ -18,10 +18,12 @@ TwrParams parse_twr_params(const YamlField& s) {
   if (!s.is_map()) s.fail("expected a map of uwb_twr parameters");
   s.check_keys({"mode", "range_sigma_m", "accel_psd", "gate_sigma", "nlos_gate_sigma",
                 "epoch_window_s", "init_velocity_sigma_mps", "reinit_after_rejections",
-                "max_coast_s", "publish_period_s", "reorder_tolerance_s", "max_range_m"});
+                "max_coast_s", "publish_period_s", "reorder_tolerance_s", "max_range_m",
+                "max_tags"});
+  // Every parameter is bounded, not just positive: a SITE message on the bus is outside input.
   auto positive = [&](const char* key, double& v) {
     v = s.get_double(key, v);
-    if (!(v > 0)) s[key].fail("must be positive");
+    if (!(v > 0 && v <= 1e6)) s[key].fail("must be in (0, 1e6]");
   };
   std::string mode = s.get_string("mode", "auto");
   if (mode != "auto" && mode != "3d") s["mode"].fail("expected auto (2D when the tag height is known) or 3d");
@@ -38,7 +40,10 @@ TwrParams parse_twr_params(const YamlField& s) {
   positive("max_range_m", p.max_range_m);
   p.reinit_after_rejections =
       static_cast<int>(s.get_int("reinit_after_rejections", p.reinit_after_rejections));
-  if (p.reinit_after_rejections < 1) s["reinit_after_rejections"].fail("must be at least 1");
+  if (p.reinit_after_rejections < 1 || p.reinit_after_rejections > 1000000)
+    s["reinit_after_rejections"].fail("must be in [1, 1000000]");
+  p.max_tags = static_cast<int>(s.get_int("max_tags", p.max_tags));
+  if (p.max_tags < 1 || p.max_tags > 100000) s["max_tags"].fail("must be in [1, 100000]");
   return p;
 }
 
@@ -64,15 +69,35 @@ void TwrEstimator::on_range(const uwb_range_t& m) {
     ++stats_.dropped_unknown_anchor;
     return;
   }
-  auto [it, inserted] = tracks_.try_emplace(m.tag_id);
+  if (m.tag_id.empty()) {
+    ++stats_.dropped_invalid;
+    return;
+  }
+  auto it = tracks_.find(m.tag_id);
+  const bool inserted = it == tracks_.end();
+  if (inserted) {
+    // Tag ids come off an unauthenticated bus: bound the memory they can make us spend. A track
+    // silent for 10 coast periods makes room first.
+    if (tracks_.size() >= static_cast<size_t>(params_.max_tags)) {
+      for (auto old = tracks_.begin(); old != tracks_.end();)
+        old = m.utime - old->second.newest_utime > 10 * s_to_utime(params_.max_coast_s)
+                  ? tracks_.erase(old)
+                  : std::next(old);
+    }
+    if (tracks_.size() >= static_cast<size_t>(params_.max_tags)) {
+      ++stats_.dropped_too_many_tags;
+      return;
+    }
+    it = tracks_.try_emplace(m.tag_id).first;
+  }
   Track& t = it->second;
   if (inserted) {
     const Tag* tag = site_->find_tag(m.tag_id);
     t.planar = !params_.force_3d && tag && std::isfinite(tag->height_m);
     t.height_m = t.planar ? tag->height_m : 0.0;
   }
-  if (!t.recent.empty()) {
-    const utime_t behind = t.recent.back().utime - m.utime;
+  if (t.newest_utime != 0) {
+    const utime_t behind = t.newest_utime - m.utime;
     if (behind > s_to_utime(params_.max_coast_s)) {
       // Time went back further than any reordering explains (a clock step, a replay restarted,
       // or one bogus future stamp before): start this track afresh rather than drop forever.
@@ -86,6 +111,7 @@ void TwrEstimator::on_range(const uwb_range_t& m) {
       return;
     }
   }
+  t.newest_utime = std::max(t.newest_utime, m.utime);
   t.recent.push_back({m.utime, m.anchor_id, m.range_m});
   while (t.recent.size() > 64 ||
          (t.recent.size() > 1 &&
@@ -127,7 +153,7 @@ void TwrEstimator::update(Track& t, CvFilter<D>& f, const Eigen::Vector3d& ancho
   }
   ++stats_.ranges_used;
   t.consecutive_rejections = 0;
-  t.last_accept_utime = m.utime;
+  t.last_accept_utime = std::max(t.last_accept_utime, m.utime);
   ++t.used_since_publish;
   t.sq_innov_since_publish += innovation * innovation;
 }

@@ -30,6 +30,7 @@ struct TwrParams {
   double publish_period_s = 0.1;  // at most one pose per tag per period
   double reorder_tolerance_s = 0.05;  // ranges this far behind the tag's newest are still used
   double max_range_m = 300.0;
+  int max_tags = 1000;            // tracks kept at most (ids off the bus must not exhaust memory)
 };
 
 // Reads `estimators.uwb_twr` of the site; throws ConfigError on a bad value.
@@ -43,6 +44,7 @@ struct TwrStats {
   int64_t dropped_invalid = 0;         // NaN, negative or absurd range, or implausible utime
   int64_t dropped_late = 0;            // older than the tag's newest range by reorder_tolerance_s
   int64_t time_resets = 0;             // older by more than max_coast_s: track restarted
+  int64_t dropped_too_many_tags = 0;   // a new tag id while max_tags tracks are active
   int64_t initialisations = 0;
   int64_t poses_out = 0;
 };
@@ -72,6 +74,7 @@ class TwrEstimator {
     CvFilter<2> f2;
     CvFilter<3> f3;
     utime_t filter_utime = 0;
+    utime_t newest_utime = 0;  // newest range seen, the reference for "late"
     utime_t last_accept_utime = 0;
     utime_t last_publish_utime = 0;
     int consecutive_rejections = 0;

@@ -16,6 +16,11 @@ double percentile(std::vector<double>& v, double p) {
 }
 
 void Evaluator::add_truth(const pose_t& m) {
+  if (!plausible_utime(m.utime) || !std::isfinite(m.position[0]) || !std::isfinite(m.position[1]) ||
+      !std::isfinite(m.position[2])) {
+    ++bad_truth_;
+    return;
+  }
   // Kept sorted by time; a log delivers truth in order, so this is almost always an append.
   auto& s = truth_[m.tag_id];
   const Sample sample{m.utime, m.position[0], m.position[1], m.position[2]};
@@ -30,6 +35,7 @@ void Evaluator::add_estimate(const std::string& channel, const pose_t& m) {
 
 bool Evaluator::truth_at(const std::string& tag, utime_t t, double& x, double& y,
                          double& z) const {
+  if (!plausible_utime(t)) return false;
   auto it = truth_.find(tag);
   if (it == truth_.end() || it->second.empty()) return false;
   const auto& s = it->second;
@@ -63,7 +69,10 @@ std::vector<ErrorRow> Evaluator::rows() const {
       if (!truth_at(row.tag, e.utime, x, y, z)) continue;
       const double eh = std::hypot(e.x - x, e.y - y);
       const double ev = e.z - z;
-      if (!std::isfinite(eh)) continue;
+      if (!std::isfinite(eh)) {
+        ++row.non_finite;  // an estimator publishing NaN must not score better for it
+        continue;
+      }
       h.push_back(eh);
       sum += eh;
       sum_sq += eh * eh;

@@ -16,6 +16,7 @@ struct ErrorRow {
   std::string channel;
   std::string tag;
   size_t count = 0;
+  size_t non_finite = 0;  // estimates with a NaN/inf horizontal position: not scored, counted
   double mean_h = 0, rmse_h = 0, median_h = 0, p95_h = 0, max_h = 0;
   double rmse_v = 0;  // over estimates with a finite height; NaN when none has one
 };
@@ -35,6 +36,8 @@ class Evaluator {
   std::vector<ErrorRow> rows() const;
   // Estimates without truth around them (before the first, after the last, or across a gap).
   size_t unmatched() const;
+  // Truth samples with a non-finite position, which are not used.
+  size_t bad_truth() const { return bad_truth_; }
 
  private:
   struct Sample {
@@ -44,6 +47,7 @@ class Evaluator {
   bool truth_at(const std::string& tag, utime_t t, double& x, double& y, double& z) const;
 
   utime_t max_gap_us_;
+  size_t bad_truth_ = 0;
   std::map<std::string, std::vector<Sample>> truth_;  // per tag
   std::map<std::pair<std::string, std::string>, std::vector<Sample>> estimates_;
 };

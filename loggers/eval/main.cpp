@@ -8,6 +8,7 @@
 
 #include "core/channels.hpp"
 #include "core/cli.hpp"
+#include "core/text_escape.hpp"
 #include "loggers/eval/evaluation.hpp"
 
 namespace {
@@ -35,13 +36,6 @@ std::string json_string(const std::string& s) {
     }
   }
   return out + "\"";
-}
-
-// For the terminal table: printable ASCII only.
-std::string printable(const std::string& s) {
-  std::string out;
-  for (unsigned char c : s) out += (c >= 0x20 && c < 0x7f) ? static_cast<char>(c) : '?';
-  return out;
 }
 
 }  // namespace
@@ -113,8 +107,9 @@ int main(int argc, char** argv) {
     std::printf("{\"rows\": [");
     for (size_t i = 0; i < rows.size(); ++i) {
       const auto& r = rows[i];
-      std::printf("%s{\"channel\": %s, \"tag\": %s, \"count\": %zu", i ? ", " : "",
-                  json_string(r.channel).c_str(), json_string(r.tag).c_str(), r.count);
+      std::printf("%s{\"channel\": %s, \"tag\": %s, \"count\": %zu, \"non_finite\": %zu",
+                  i ? ", " : "", json_string(r.channel).c_str(), json_string(r.tag).c_str(),
+                  r.count, r.non_finite);
       const std::pair<const char*, double> fields[] = {{"mean_h", r.mean_h},   {"rmse_h", r.rmse_h},
                                                        {"median_h", r.median_h}, {"p95_h", r.p95_h},
                                                        {"max_h", r.max_h},     {"rmse_v", r.rmse_v}};
@@ -130,12 +125,12 @@ int main(int argc, char** argv) {
                 "rmse_h", "median_h", "p95_h", "max_h", "rmse_v");
     for (const auto& r : rows) {
       if (r.count == 0) {  // no truth around any estimate: no numbers, rather than zeros
-        std::printf("%-14s %-10s %7zu %8s %8s %8s %8s %8s %8s\n", printable(r.channel).c_str(),
-                    printable(r.tag).c_str(), r.count, "-", "-", "-", "-", "-", "-");
+        std::printf("%-14s %-10s %7zu %8s %8s %8s %8s %8s %8s\n", ips::printable(r.channel).c_str(),
+                    ips::printable(r.tag).c_str(), r.count, "-", "-", "-", "-", "-", "-");
         continue;
       }
       std::printf("%-14s %-10s %7zu %8.3f %8.3f %8.3f %8.3f %8.3f %8.3f\n",
-                  printable(r.channel).c_str(), printable(r.tag).c_str(), r.count, r.mean_h,
+                  ips::printable(r.channel).c_str(), ips::printable(r.tag).c_str(), r.count, r.mean_h,
                   r.rmse_h, r.median_h, r.p95_h, r.max_h, r.rmse_v);
     }
     std::printf("(errors in metres; %lld log events, %lld truth samples, %lld estimates, %zu "
@@ -143,6 +138,14 @@ int main(int argc, char** argv) {
                 static_cast<long long>(events), static_cast<long long>(truth),
                 static_cast<long long>(poses), ev.unmatched());
   }
+  size_t non_finite = 0;
+  for (const auto& r : rows) non_finite += r.non_finite;
+  if (non_finite > 0)
+    std::fprintf(stderr, "ips-eval: warning: %zu estimates have a non-finite position (not scored)\n",
+                 non_finite);
+  if (ev.bad_truth() > 0)
+    std::fprintf(stderr, "ips-eval: warning: %zu truth samples with a non-finite position or bad "
+                 "utime were ignored\n", ev.bad_truth());
   if (truth == 0) std::fprintf(stderr, "ips-eval: warning: no %s messages in %s\n", truth_channel.c_str(), log_path.c_str());
   if (rows.empty()) std::fprintf(stderr, "ips-eval: warning: no pose estimates in %s\n", log_path.c_str());
   return 0;

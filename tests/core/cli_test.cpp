@@ -3,6 +3,8 @@
 
 #include <gtest/gtest.h>
 
+#include "core/channels.hpp"
+
 namespace ips {
 namespace {
 
@@ -47,6 +49,17 @@ TEST(Cli, UnknownChannelKindIsAnError) {
   testing::internal::CaptureStderr();
   EXPECT_EQ(parse({"--channel", "POSE_UBW=X"}, opts, go_on), 2);
   EXPECT_EQ(testing::internal::GetCapturedStderr().rfind("prog: error: --channel: unknown kind 'POSE_UBW' (UWB_RANGE, ", 0), 0u);
+}
+
+TEST(Cli, ChannelNamesThatLcmWouldMisreadAreErrors) {
+  for (std::string bad : {std::string("UWB["), std::string("UWB.RANGE"), std::string(64, 'X')}) {
+    CommonOptions opts;
+    bool go_on = true;
+    testing::internal::CaptureStderr();
+    EXPECT_EQ(parse({"--channel", "UWB_RANGE=" + bad}, opts, go_on), 2) << bad;
+    EXPECT_NE(testing::internal::GetCapturedStderr().find("bad channel name"), std::string::npos);
+  }
+  EXPECT_TRUE(channel::valid_channel_name(std::string(63, 'X')));
 }
 
 TEST(Cli, UnknownLogLevelIsAnError) {

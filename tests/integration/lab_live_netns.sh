@@ -27,8 +27,8 @@ SPEED=4
 fail() { echo "FAIL: $*" >&2; exit 1; }
 
 # Reads "rmse_h"/"p95_h"/"count" of one channel's row from ips-eval --json.
-field() {  # json channel name
-  echo "$1" | tr '{' '\n' | grep "\"channel\": \"$2\"" | sed -E "s/.*\"$3\": ([0-9.]+|null).*/\1/"
+field() {  # json channel name (empty when there is no such row)
+  echo "$1" | tr '{' '\n' | grep "\"channel\": \"$2\"" | sed -E "s/.*\"$3\": ([0-9.]+|null).*/\1/" || true
 }
 check_bound() {  # log channel
   local json rmse p95 count
@@ -47,6 +47,10 @@ stop() {  # pid name [signal]: SIGINT (or the signal given), expect a clean exit
   kill -"${3:-INT}" "$1"
   local rc=0
   wait "$1" || rc=$?
+  # Reaped: forget it, so that cleanup never signals a pid the kernel has reused.
+  local kept=() p
+  for p in "${pids[@]}"; do [ "$p" = "$1" ] || kept+=("$p"); done
+  pids=("${kept[@]}")
   [ "$rc" -eq 0 ] || fail "$2 exited with status $rc after SIGINT (expected 0)"
 }
 
@@ -55,7 +59,10 @@ stop() {  # pid name [signal]: SIGINT (or the signal given), expect a clean exit
 # --- 1: live ------------------------------------------------------------------------------
 lcm-logger -q -f "$WORK/live.lcm" & logger=$!; pids+=($logger)
 "$BIN/ips-uwb-twr" --log-level warn & twr=$!; pids+=($twr)
-sleep 0.5
+# Start publishing only once the tracker is up (it reports on HEALTH as it starts) and the
+# logger has had time to subscribe.
+"$BIN/ips-bus-check" --wait-for ips-uwb-twr --timeout 20 || fail "ips-uwb-twr did not come up"
+sleep 0.2
 start=$(date +%s.%N)
 "$BIN/ips-sim" --scenario lab --seed 1 --duration 60 --speed $SPEED --log-level warn
 echo "ips-sim: 60 s of lab at x$SPEED took $(awk -v s="$start" -v e="$(date +%s.%N)" 'BEGIN{printf "%.1f", e-s}') s"
@@ -69,7 +76,8 @@ grep -aq 'ips-uwb-twr' "$WORK/live.lcm" || fail "no HEALTH message from ips-uwb-
 # --- 2: replay with the real lcm-logplayer ----------------------------------------------------
 lcm-logger -q -f -c 'POSE_UWB_REPLAY' "$WORK/replay.lcm" & logger=$!; pids+=($logger)
 "$BIN/ips-uwb-twr" --channel POSE_UWB=POSE_UWB_REPLAY --log-level warn & twr=$!; pids+=($twr)
-sleep 0.5
+"$BIN/ips-bus-check" --wait-for ips-uwb-twr --timeout 20 || fail "ips-uwb-twr did not come up"
+sleep 0.2
 lcm-logplayer -s $SPEED -e '^(SITE|UWB_RANGE|TRUTH)$' "$WORK/live.lcm"
 sleep 0.5
 stop $twr ips-uwb-twr TERM

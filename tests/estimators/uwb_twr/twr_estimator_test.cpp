@@ -193,6 +193,38 @@ TEST(TwrEstimator, ImplausibleTimestampsAreInvalid) {
   EXPECT_EQ(est.stats().dropped_invalid, 3);
 }
 
+TEST(TwrEstimator, LateRangesCannotCreepBackwards) {
+  const Site site = square_site(1.2);
+  TwrEstimator est([](const pose_t&) {});
+  est.set_site(site);
+  // Each range 40 ms older than the previous: within the 50 ms tolerance of its predecessor, but
+  // from the third on more than 50 ms behind the newest.
+  for (int i = 0; i < 5; ++i) est.on_range(range_msg(10'000'000 - i * 40'000, "A1", 5.0));
+  EXPECT_EQ(est.stats().dropped_late, 3);
+}
+
+TEST(TwrEstimator, TagIdsOffTheBusCannotExhaustMemory) {
+  Site site = parse_site_text(
+      "anchors:\n  - {id: A1, position: [0, 0, 2.4]}\nestimators:\n  uwb_twr: {max_tags: 3}\n", "s");
+  TwrEstimator est([](const pose_t&) {});
+  est.set_site(site);
+  for (int i = 0; i < 10; ++i) {
+    uwb_range_t m = range_msg(1'000'000 + i, "A1", 3.0);
+    m.tag_id = "tag" + std::to_string(i);
+    est.on_range(m);
+  }
+  EXPECT_EQ(est.stats().dropped_too_many_tags, 7);
+  // Much later the silent tracks are evicted and a new id gets a track.
+  uwb_range_t later = range_msg(1'000'000 + 60'000'000, "A1", 3.0);
+  later.tag_id = "new";
+  est.on_range(later);
+  EXPECT_EQ(est.stats().dropped_too_many_tags, 7);
+  uwb_range_t empty = later;
+  empty.tag_id = "";
+  est.on_range(empty);
+  EXPECT_EQ(est.stats().dropped_invalid, 1);
+}
+
 TEST(TwrEstimator, NoSiteNoOutput) {
   int published = 0;
   TwrEstimator est([&](const pose_t&) { ++published; });
@@ -210,7 +242,7 @@ TEST(TwrParams, BadValueNamesTheField) {
     est.set_site(site);
     FAIL() << "expected ConfigError";
   } catch (const ConfigError& e) {
-    EXPECT_STREQ(e.what(), "site.yaml:5: estimators.uwb_twr.range_sigma_m: must be positive");
+    EXPECT_STREQ(e.what(), "site.yaml:5: estimators.uwb_twr.range_sigma_m: must be in (0, 1e6]");
   }
 }
 

@@ -8,9 +8,12 @@
 namespace ips::eval {
 namespace {
 
+// Times in the tests are offsets from a plausible epoch (utimes <= 0 are invalid input).
+constexpr utime_t kT0 = 1767225600000000;
+
 pose_t pose(utime_t t, const std::string& tag, double x, double y, double z) {
   pose_t p{};
-  p.utime = t;
+  p.utime = kT0 + t;
   p.tag_id = tag;
   p.position[0] = x;
   p.position[1] = y;
@@ -89,6 +92,19 @@ TEST(Evaluator, VerticalErrorLeavesOutEstimatesWithoutHeight) {
   auto r = ev.rows()[0];
   EXPECT_EQ(r.count, 2u);
   EXPECT_NEAR(r.rmse_v, 0.3, 1e-12);
+}
+
+TEST(Evaluator, NonFiniteEstimatesAreCountedNotHidden) {
+  Evaluator ev;
+  ev.add_truth(pose(0, "T", 0, 0, 0));
+  ev.add_truth(pose(1'000'000, "T", 0, 0, 0));
+  ev.add_truth(pose(2'000'000, "T", NAN, 0, 0));  // ignored, counted
+  ev.add_estimate("P", pose(500'000, "T", 1, 0, 0));
+  ev.add_estimate("P", pose(600'000, "T", NAN, 0, 0));
+  auto r = ev.rows()[0];
+  EXPECT_EQ(r.count, 1u);
+  EXPECT_EQ(r.non_finite, 1u);
+  EXPECT_EQ(ev.bad_truth(), 1u);
 }
 
 TEST(Evaluator, OutOfOrderTruthIsSorted) {
