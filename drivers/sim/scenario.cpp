@@ -6,35 +6,11 @@
 
 namespace ips::sim {
 
-namespace {
-
-UwbTwrModel parse_uwb_twr(const YamlField& f) {
-  UwbTwrModel m;
-  if (!f.node().IsDefined()) return m;
-  // `uwb_twr:` with nothing after it means the model with its defaults.
-  m.enabled = true;
-  if (f.node().IsNull()) return m;
-  if (!f.is_map()) f.fail("expected a map of model parameters");
-  f.check_keys({"enabled", "rate_hz", "noise_sigma_m", "bias_m", "nlos_probability",
-                "nlos_bias_min_m", "nlos_bias_max_m", "loss_probability", "max_range_m"});
-  m.enabled = f.get_bool("enabled", true);
-  m.rate_hz = f.get_double("rate_hz", m.rate_hz);
-  if (!(m.rate_hz >= 0.01 && m.rate_hz <= 1000)) f["rate_hz"].fail("must be in [0.01, 1000]");
-  m.noise_sigma_m = f.get_double("noise_sigma_m", m.noise_sigma_m);
-  if (m.noise_sigma_m < 0) f["noise_sigma_m"].fail("must not be negative");
-  m.bias_m = f.get_double("bias_m", m.bias_m);
-  m.nlos_probability = f.get_double("nlos_probability", m.nlos_probability);
-  if (m.nlos_probability < 0 || m.nlos_probability > 1) f["nlos_probability"].fail("must be in [0, 1]");
-  m.nlos_bias_min_m = f.get_double("nlos_bias_min_m", m.nlos_bias_min_m);
-  m.nlos_bias_max_m = f.get_double("nlos_bias_max_m", m.nlos_bias_max_m);
-  if (m.nlos_bias_max_m < m.nlos_bias_min_m) f["nlos_bias_max_m"].fail("must be >= nlos_bias_min_m");
-  m.loss_probability = f.get_double("loss_probability", m.loss_probability);
-  if (m.loss_probability < 0 || m.loss_probability > 1) f["loss_probability"].fail("must be in [0, 1]");
-  m.max_range_m = f.get_double("max_range_m", m.max_range_m);
-  return m;
+const SensorSection* Scenario::sensor(const std::string& model_name) const {
+  for (const auto& s : sensors)
+    if (model_name == s.model->name) return &s;
+  return nullptr;
 }
-
-}  // namespace
 
 Scenario parse_scenario_text(const std::string& text, const std::string& origin) {
   YamlField root = parse_yaml_text(text, origin);
@@ -77,12 +53,31 @@ Scenario parse_scenario_text(const std::string& text, const std::string& origin)
 
   auto sensors = root["sensors"];
   if (sensors.defined() && !sensors.is_map()) sensors.fail("expected a map of sensor models");
-  sensors.check_keys({"truth", "uwb_twr"});
-  sensors["truth"].check_keys({"rate_hz"});
-  sc.truth.rate_hz = sensors["truth"].get_double("rate_hz", sc.truth.rate_hz);
-  if (!(sc.truth.rate_hz >= 0.01 && sc.truth.rate_hz <= 1000))
-    sensors["truth"]["rate_hz"].fail("must be in [0.01, 1000]");
-  sc.uwb_twr = parse_uwb_twr(sensors["uwb_twr"]);
+  if (sensors.is_map()) {
+    for (const auto& kv : sensors.node()) {
+      const std::string key = kv.first.IsScalar() ? kv.first.Scalar() : "?";
+      const SensorModel* model = nullptr;
+      for (const auto& m : sensor_models())
+        if (key == m.name) model = &m;
+      if (!model) {
+        std::string names;
+        for (const auto& m : sensor_models()) names += (names.empty() ? "" : ", ") + std::string(m.name);
+        YamlField(kv.first, origin, "sensors." + key).fail("unknown sensor model (known: " + names + ")");
+      }
+    }
+  }
+  for (const auto& m : sensor_models()) {
+    YamlField section = sensors[m.name];
+    const bool present = section.node().IsDefined();
+    // Absent: off (TRUTH excepted, on with defaults). `name:` with no value: on, with defaults.
+    if (!present && std::string(m.name) != "truth") continue;
+    if (present && !section.node().IsNull() && !section.is_map())
+      section.fail("expected a map of model parameters");
+    if (section.get_bool("enabled", true)) sc.sensors.push_back({&m, section});
+  }
+  // Make every model's sources once, so that a bad parameter stops here, at start-up.
+  const SimWorld world{sc.site, sc.trajectories, 0};
+  for (const auto& s : sc.sensors) (void)s.model->make(s.section, world);
   return sc;
 }
 

@@ -5,30 +5,15 @@
 #include <vector>
 
 #include "core/site.hpp"
+#include "drivers/sim/sensor_model.hpp"
 #include "drivers/sim/trajectory.hpp"
 
 namespace ips::sim {
 
-struct TagTrajectory {
-  std::string tag_id;
-  WaypointTrajectory path;
-};
-
-struct TruthModel {
-  double rate_hz = 50.0;
-};
-
-// Two-way ranging between every enabled UWB anchor and every tag.
-struct UwbTwrModel {
-  bool enabled = false;
-  double rate_hz = 10.0;         // per anchor and tag
-  double noise_sigma_m = 0.10;   // Gaussian
-  double bias_m = 0.0;           // constant
-  double nlos_probability = 0.0; // per range
-  double nlos_bias_min_m = 0.3;  // NLOS adds a uniform positive bias in [min, max]
-  double nlos_bias_max_m = 1.5;
-  double loss_probability = 0.0;
-  double max_range_m = 100.0;
+// One enabled `sensors:` section and the model it belongs to.
+struct SensorSection {
+  const SensorModel* model;
+  YamlField section;
 };
 
 struct Scenario {
@@ -37,8 +22,10 @@ struct Scenario {
   double site_period_s = 5.0;
   Site site;
   std::vector<TagTrajectory> trajectories;
-  TruthModel truth;
-  UwbTwrModel uwb_twr;
+  std::vector<SensorSection> sensors;  // TRUTH always among them
+
+  // The section of model `name` (e.g. "uwb_twr"), or nullptr when it is not enabled.
+  const SensorSection* sensor(const std::string& name) const;
 };
 
 // Parses a scenario from YAML text; throws ConfigError naming file, line, field and reason.

@@ -131,14 +131,30 @@ TEST(Scenario, SensorSectionWithoutValuesMeansDefaultsAndTyposAreErrors) {
       "site:\n  anchors:\n    - {id: A1, position: [0, 0, 2]}\n  tags:\n    - {id: T1}\n"
       "trajectories:\n  - tag: T1\n    waypoints: [[0, 0], [1, 1]]\n";
   Scenario sc = parse_scenario_text(base + "sensors:\n  uwb_twr:\n", "my.yaml");
-  EXPECT_TRUE(sc.uwb_twr.enabled);
-  EXPECT_DOUBLE_EQ(sc.uwb_twr.noise_sigma_m, 0.10);
-  EXPECT_FALSE(parse_scenario_text(base, "my.yaml").uwb_twr.enabled);
+  EXPECT_NE(sc.sensor("uwb_twr"), nullptr);
+  EXPECT_NE(sc.sensor("truth"), nullptr);  // TRUTH is on without a section
+  EXPECT_EQ(parse_scenario_text(base, "my.yaml").sensor("uwb_twr"), nullptr);
+  EXPECT_EQ(parse_scenario_text(base + "sensors:\n  uwb_twr: {enabled: false}\n", "my.yaml")
+                .sensor("uwb_twr"),
+            nullptr);
   try {
     parse_scenario_text(base + "sensors:\n  uwb_twr: {noise_sigma: 0.2}\n", "my.yaml");
     FAIL();
   } catch (const ConfigError& e) {
     EXPECT_EQ(std::string(e.what()).rfind("my.yaml:10: sensors.uwb_twr.noise_sigma: unknown field", 0), 0u)
+        << e.what();
+  }
+}
+
+TEST(Scenario, UnknownSensorModelListsTheKnownOnes) {
+  const std::string text =
+      "site:\n  anchors:\n    - {id: A1, position: [0, 0, 2]}\n  tags:\n    - {id: T1}\n"
+      "trajectories:\n  - {tag: T1, waypoints: [[0, 0], [1, 1]]}\nsensors:\n  lidar: {}\n";
+  try {
+    parse_scenario_text(text, "my.yaml");
+    FAIL();
+  } catch (const ConfigError& e) {
+    EXPECT_EQ(std::string(e.what()).rfind("my.yaml:9: sensors.lidar: unknown sensor model (known: ", 0), 0u)
         << e.what();
   }
 }

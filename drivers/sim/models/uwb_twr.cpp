@@ -1,0 +1,101 @@
+// UWB two-way ranging between every enabled `uwb` anchor and every walker (UWB_RANGE):
+// Gaussian noise, a constant bias, NLOS outliers with a uniform positive bias, packet loss and a
+// maximum range. Ranging is time-multiplexed: each (tag, anchor) pair has its own slot.
+#include <algorithm>
+#include <ips/uwb_range_t.hpp>
+
+#include "drivers/sim/sensor_model.hpp"
+
+namespace ips::sim {
+
+namespace {
+
+struct UwbTwrParams {
+  double rate_hz = 10.0;          // per anchor and tag
+  double noise_sigma_m = 0.10;    // Gaussian
+  double bias_m = 0.0;            // constant
+  double nlos_probability = 0.0;  // per range
+  double nlos_bias_min_m = 0.3;   // NLOS adds a uniform positive bias in [min, max]
+  double nlos_bias_max_m = 1.5;
+  double loss_probability = 0.0;
+  double max_range_m = 100.0;
+};
+
+class UwbTwrSource : public PeriodicSource {
+ public:
+  UwbTwrSource(const UwbTwrParams& p, const TagTrajectory& walker, const Anchor& anchor,
+               int64_t phase_us, std::mt19937_64 rng)
+      : PeriodicSource(period_us(p.rate_hz), phase_us),
+        p_(p),
+        walker_(walker),
+        anchor_(anchor),
+        rng_(std::move(rng)) {}
+
+ protected:
+  bool emit(utime_t t, double t_s, SimEvent& ev) override {
+    const double true_range = (walker_.path.at(t_s).position - anchor_.position).norm();
+    // Draw every random number whether or not the range survives, so the stream stays aligned.
+    std::uniform_real_distribution<double> uni(0.0, 1.0);
+    std::normal_distribution<double> gauss(0.0, 1.0);
+    const double u_loss = uni(rng_);
+    const double u_nlos = uni(rng_);
+    const double u_bias = uni(rng_);
+    const double noise = gauss(rng_);
+    const int32_t seq = seq_++;
+    if (u_loss < p_.loss_probability || true_range > p_.max_range_m) return false;
+    double r = true_range + p_.bias_m + p_.noise_sigma_m * noise;
+    if (u_nlos < p_.nlos_probability)
+      r += p_.nlos_bias_min_m + u_bias * (p_.nlos_bias_max_m - p_.nlos_bias_min_m);
+    uwb_range_t m;
+    m.utime = t;
+    m.source = kSimSource;
+    m.tag_id = walker_.tag_id;
+    m.anchor_id = anchor_.id;
+    m.range_m = std::max(0.0, r);
+    m.rx_power_dbm = m.fp_power_dbm = m.quality = std::numeric_limits<float>::quiet_NaN();
+    m.seq = seq;
+    encode_event(m, t, "UWB_RANGE", ev);
+    return true;
+  }
+
+ private:
+  UwbTwrParams p_;
+  const TagTrajectory& walker_;
+  const Anchor& anchor_;
+  std::mt19937_64 rng_;
+  int32_t seq_ = 0;
+};
+
+SourceList make(const YamlField& f, const SimWorld& world) {
+  f.check_keys({"enabled", "rate_hz", "noise_sigma_m", "bias_m", "nlos_probability",
+                "nlos_bias_min_m", "nlos_bias_max_m", "loss_probability", "max_range_m"});
+  UwbTwrParams p;
+  p.rate_hz = param_in_range(f, "rate_hz", p.rate_hz, 0.01, 1000);
+  p.noise_sigma_m = param_in_range(f, "noise_sigma_m", p.noise_sigma_m, 0, 100);
+  p.bias_m = param_in_range(f, "bias_m", p.bias_m, -100, 100);
+  p.nlos_probability = param_in_range(f, "nlos_probability", p.nlos_probability, 0, 1);
+  p.nlos_bias_min_m = param_in_range(f, "nlos_bias_min_m", p.nlos_bias_min_m, 0, 100);
+  p.nlos_bias_max_m = param_in_range(f, "nlos_bias_max_m", p.nlos_bias_max_m, p.nlos_bias_min_m, 100);
+  p.loss_probability = param_in_range(f, "loss_probability", p.loss_probability, 0, 1);
+  p.max_range_m = param_in_range(f, "max_range_m", p.max_range_m, 0, 1e6);
+
+  std::vector<const Anchor*> anchors;
+  for (const auto& a : world.site.anchors)
+    if (a.kind == "uwb" && a.enabled) anchors.push_back(&a);
+  const int64_t period = period_us(p.rate_hz);
+  const int64_t slots = std::max<int64_t>(1, static_cast<int64_t>(anchors.size() * world.walkers.size()));
+  int64_t slot = 0;
+  SourceList out;
+  for (const auto& w : world.walkers)
+    for (const Anchor* a : anchors)
+      out.push_back(std::make_unique<UwbTwrSource>(
+          p, w, *a, (slot++ * period) / slots + 1000,
+          stream_rng(world.seed, "UWB_RANGE " + w.tag_id + " " + a->id)));
+  return out;
+}
+
+}  // namespace
+
+SensorModel uwb_twr_sensor_model() { return {"uwb_twr", &make}; }
+
+}  // namespace ips::sim
