@@ -12,6 +12,34 @@ const SensorSection* Scenario::sensor(const std::string& model_name) const {
   return nullptr;
 }
 
+namespace {
+// A waypoint: [x, y] (at the walker's height), [x, y, z], or {at: [...], stop_s, speed_mps}.
+Waypoint parse_waypoint(const YamlField& f, double height) {
+  Waypoint w;
+  YamlField at = f;
+  if (f.is_map()) {
+    f.check_keys({"at", "stop_s", "speed_mps"});
+    at = f.required("at");
+    w.stop_s = f.get_double("stop_s", 0.0);
+    if (!(w.stop_s >= 0 && w.stop_s <= 1e7)) f["stop_s"].fail("must be in [0, 1e7]");
+    if (f["speed_mps"].defined()) {
+      w.speed_mps = f["speed_mps"].as_double();
+      if (!(w.speed_mps > 0 && w.speed_mps <= 100)) f["speed_mps"].fail("must be in (0, 100]");
+    }
+  }
+  if (at.is_sequence() && at.size() == 2) {
+    const Eigen::Vector2d p = at.as_vec2();
+    w.at = Eigen::Vector3d(p.x(), p.y(), height);
+  } else if (at.is_sequence() && at.size() == 3) {
+    w.at = at.as_vec3();
+  } else {
+    at.fail("expected [x, y], [x, y, z] or {at: [x, y, z], stop_s: S, speed_mps: V}");
+  }
+  if (w.at.cwiseAbs().maxCoeff() > 1e6) at.fail("coordinates must be within 1e6 m");
+  return w;
+}
+}  // namespace
+
 Scenario parse_scenario_text(const std::string& text, const std::string& origin) {
   YamlField root = parse_yaml_text(text, origin);
   if (!root.is_map()) root.fail("expected a scenario map (name, site, trajectories, sensors)");
@@ -29,23 +57,25 @@ Scenario parse_scenario_text(const std::string& text, const std::string& origin)
   if (!trajs.is_sequence() || trajs.size() == 0) trajs.fail("expected a list of trajectories");
   for (size_t i = 0; i < trajs.size(); ++i) {
     auto t = trajs[i];
-    t.check_keys({"tag", "waypoints", "height_m", "speed_mps", "loop"});
+    t.check_keys({"tag", "waypoints", "height_m", "speed_mps", "loop", "start_s"});
     std::string tag = t.required("tag").as_string();
     for (const auto& other : sc.trajectories)
       if (other.tag_id == tag) t["tag"].fail("tag '" + tag + "' already has a trajectory");
     const Tag* site_tag = sc.site.find_tag(tag);
     if (!site_tag) t["tag"].fail("tag '" + tag + "' is not in site.tags");
     auto wps = t.required("waypoints");
-    if (!wps.is_sequence() || wps.size() < 2) wps.fail("expected at least 2 waypoints [x, y]");
-    std::vector<Eigen::Vector2d> points;
-    for (size_t k = 0; k < wps.size(); ++k) points.push_back(wps[k].as_vec2());
-    double height = t.get_double("height_m", std::isnan(site_tag->height_m) ? 1.2 : site_tag->height_m);
-    double speed = t.get_double("speed_mps", 1.0);
+    if (!wps.is_sequence() || wps.size() < 2) wps.fail("expected at least 2 waypoints");
+    const double height =
+        t.get_double("height_m", std::isnan(site_tag->height_m) ? 1.2 : site_tag->height_m);
+    const double speed = t.get_double("speed_mps", 1.0);
     if (!(speed > 0 && speed <= 100)) t["speed_mps"].fail("must be in (0, 100]");
-    for (size_t k = 0; k < points.size(); ++k)
-      if (points[k].cwiseAbs().maxCoeff() > 1e6) wps[k].fail("coordinates must be within 1e6 m");
+    const double start_s = t.get_double("start_s", 0.0);
+    if (!(start_s >= 0 && start_s <= 1e7)) t["start_s"].fail("must be in [0, 1e7]");
+    std::vector<Waypoint> points;
+    for (size_t k = 0; k < wps.size(); ++k) points.push_back(parse_waypoint(wps[k], height));
     try {
-      sc.trajectories.push_back({tag, WaypointTrajectory(points, speed, height, t.get_bool("loop", true))});
+      sc.trajectories.push_back(
+          {tag, WaypointTrajectory(points, speed, t.get_bool("loop", true), start_s)});
     } catch (const std::invalid_argument& e) {
       wps.fail(e.what());
     }

@@ -183,18 +183,5 @@ TEST(Scenario, TrajectoryTagMustBeInSite) {
   }
 }
 
-TEST(WaypointTrajectory, ClosedLoopWalksAtConstantSpeed) {
-  WaypointTrajectory t({{0, 0}, {4, 0}, {4, 3}}, 1.0, 1.2, true);
-  EXPECT_DOUBLE_EQ(t.length_m(), 12.0);
-  auto s = t.at(2.0);
-  EXPECT_NEAR(s.position.x(), 2.0, 1e-12);
-  EXPECT_NEAR(s.velocity.x(), 1.0, 1e-12);
-  s = t.at(5.5);  // 1.5 m up the second leg
-  EXPECT_NEAR(s.position.y(), 1.5, 1e-12);
-  s = t.at(12.0 + 2.0);  // second lap
-  EXPECT_NEAR(s.position.x(), 2.0, 1e-12);
-  EXPECT_DOUBLE_EQ(s.position.z(), 1.2);
-}
-
 }  // namespace
 }  // namespace ips::sim
