@@ -98,6 +98,7 @@ int main(int argc, char** argv) {
   std::string out;
   std::optional<int64_t> start_utime;
   bool list = false;
+  int tags = 1;
   app.add_option("--scenario", scenario_name, "built-in scenario name or scenario file")
       ->type_name("NAME|FILE");
   app.add_option("--seed", seed, "random seed")->capture_default_str();
@@ -116,6 +117,11 @@ int main(int argc, char** argv) {
                  "utime of the scenario start (default: now when live, 2026-01-01T00:00:00Z with "
                  "--out)");
   app.add_flag("--list-scenarios", list, "print the built-in scenario names and exit");
+  app.add_option("--tags", tags,
+                 "walkers per scenario walker: copies named <tag>-2 ... <tag>-N walk the same "
+                 "path, started later")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 1000));
   int rc = 0;
   if (!ips::parse_command_line(app, opts, argc, argv, rc)) return rc;
   if (list) {
@@ -133,6 +139,7 @@ int main(int argc, char** argv) {
   return ips::run_reporting_errors("ips-sim", [&] {
     ips::sim::Scenario sc = ips::sim::load_scenario(scenario_name);
     if (duration > 0) sc.duration_s = duration;
+    ips::sim::replicate_walkers(sc, tags);
     if (!out.empty()) {
       ips::sim::Simulator sim(std::move(sc), seed, start_utime.value_or(kDefaultLogStart));
       return write_log(sim, opts, out);

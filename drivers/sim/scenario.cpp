@@ -111,6 +111,31 @@ Scenario parse_scenario_text(const std::string& text, const std::string& origin)
   return sc;
 }
 
+void replicate_walkers(Scenario& sc, int n) {
+  if (n < 1 || n > 1000) throw ConfigError("--tags: must be in [1, 1000], got " + std::to_string(n));
+  if (n == 1) return;
+  YAML::Node root = YAML::Load(sc.site.yaml_text);
+  const std::vector<TagTrajectory> originals = sc.trajectories;
+  for (const auto& w : originals) {
+    const Tag* tag = sc.site.find_tag(w.tag_id);
+    const double spacing = w.path.loop() ? w.path.lap_s() / n : 2.0;
+    for (int k = 2; k <= n; ++k) {
+      const std::string id = w.tag_id + "-" + std::to_string(k);
+      if (sc.site.find_tag(id)) throw ConfigError("--tags: tag id '" + id + "' already exists");
+      YAML::Node t;
+      t["id"] = id;
+      if (tag && std::isfinite(tag->height_m)) t["height_m"] = tag->height_m;
+      root["tags"].push_back(t);
+      sc.trajectories.push_back({id, w.path.delayed((k - 1) * spacing)});
+    }
+  }
+  YAML::Emitter out;
+  out << root;
+  Site site = parse_site_text(out.c_str(), sc.site.origin);
+  site.estimators = sc.site.estimators;  // keep the marks of the original text for errors
+  sc.site = site;
+}
+
 Scenario load_scenario(const std::string& name_or_file) {
   if (const char* text = builtin_scenario_text(name_or_file)) {
     return parse_scenario_text(text, "built-in scenario '" + name_or_file + "'");

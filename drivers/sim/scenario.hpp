@@ -35,6 +35,11 @@ Scenario parse_scenario_text(const std::string& text, const std::string& origin)
 // the list of built-in names when NAME is neither.
 Scenario load_scenario(const std::string& name_or_file);
 
+// Makes every walker N walkers (--tags N): copies of each tag, named "<tag>-2" ... "<tag>-N" and
+// added to the site, walk the same path started later (spread over one lap of a loop, 2 s apart
+// otherwise). Throws ConfigError when n is not in [1, 1000].
+void replicate_walkers(Scenario& sc, int n);
+
 // Built-in scenario names and their YAML text.
 std::vector<std::string> builtin_scenario_names();
 const char* builtin_scenario_text(const std::string& name);  // nullptr when unknown

@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <ips/pose_t.hpp>
+#include <ips/site_t.hpp>
 #include <ips/uwb_range_t.hpp>
 #include <map>
 
@@ -100,6 +101,43 @@ TEST(Simulator, RangeErrorsFollowTheLabModel) {
   EXPECT_NEAR(sigma, 0.10, 0.01);
   // NLOS biases below 0.45 m hide among clean ranges: (0.45-0.3)/1.2 = 12.5 % of them.
   EXPECT_NEAR(outliers / total, 0.05 * 0.875, 0.006);
+}
+
+TEST(Scenario, TagsReplicateWalkersIntoTheSiteAndEverySensor) {
+  Scenario sc = load_scenario("lab");
+  sc.duration_s = 10;
+  replicate_walkers(sc, 3);
+  ASSERT_EQ(sc.trajectories.size(), 3u);
+  EXPECT_EQ(sc.trajectories[2].tag_id, "T1-3");
+  ASSERT_NE(sc.site.find_tag("T1-2"), nullptr);
+  EXPECT_DOUBLE_EQ(sc.site.find_tag("T1-2")->height_m, 1.2);
+  // The copies start a third of a lap apart, so they are not on top of each other.
+  const double lap = sc.trajectories[0].path.lap_s();
+  EXPECT_NEAR(sc.trajectories[1].path.start_s(), lap / 3, 1e-9);
+  Simulator s(sc, 1, kStart);
+  std::map<std::string, int> ranges, truth;
+  SimEvent e;
+  while (s.next(e)) {
+    if (e.kind == "UWB_RANGE") {
+      uwb_range_t r;
+      r.decode(e.data.data(), 0, static_cast<int>(e.data.size()));
+      ranges[r.tag_id]++;
+    } else if (e.kind == "TRUTH") {
+      pose_t p;
+      p.decode(e.data.data(), 0, static_cast<int>(e.data.size()));
+      truth[p.tag_id]++;
+    } else if (e.kind == "SITE") {
+      site_t m;
+      m.decode(e.data.data(), 0, static_cast<int>(e.data.size()));
+      EXPECT_EQ(m.num_tags, 3);
+      EXPECT_EQ(site_from_msg(m).tags.size(), 3u);  // the YAML carries them too
+    }
+  }
+  for (const char* tag : {"T1", "T1-2", "T1-3"}) {
+    EXPECT_NEAR(ranges[tag], 400, 4) << tag;  // 4 anchors x 10 Hz x 10 s
+    EXPECT_NEAR(truth[tag], 500, 2) << tag;
+  }
+  EXPECT_THROW(replicate_walkers(sc, 0), ConfigError);
 }
 
 TEST(Scenario, UnknownNameListsBuiltins) {
