@@ -28,22 +28,22 @@ Simulator::Simulator(Scenario scenario, uint64_t seed, utime_t start_utime)
   const SimWorld world{sc_.site, sc_.trajectories, seed};
   for (const auto& s : sc_.sensors)
     for (auto& src : s.model->make(s.section, world)) sources_.push_back(std::move(src));
+  for (size_t i = 0; i < sources_.size(); ++i)
+    if (sources_[i]->next_us() != SensorSource::kNoMoreEvents) queue_.push({sources_[i]->next_us(), i});
 }
 
 bool Simulator::next(SimEvent& ev) {
-  for (;;) {
-    SensorSource* best = nullptr;
-    int64_t best_us = SensorSource::kNoMoreEvents;
-    for (auto& s : sources_) {
-      const int64_t us = s->next_us();
-      if (us < best_us) {
-        best = s.get();
-        best_us = us;
-      }
-    }
-    if (!best || start_ + best_us > end_) return false;
-    if (best->fire(start_, ev)) return true;
+  // The earliest source; on equal times the one added first (SITE, then the registry order).
+  while (!queue_.empty()) {
+    const auto [due_us, i] = queue_.top();
+    if (start_ + due_us > end_) return false;
+    queue_.pop();
+    SensorSource& src = *sources_[i];
+    const bool produced = src.fire(start_, ev);
+    if (src.next_us() != SensorSource::kNoMoreEvents) queue_.push({src.next_us(), i});
+    if (produced) return true;
   }
+  return false;
 }
 
 }  // namespace ips::sim

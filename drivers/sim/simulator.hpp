@@ -3,6 +3,8 @@
 // sensor model's). Pure: no clock, no I/O. The same scenario, seed and start time give the same
 // bytes.
 #include <cstdint>
+#include <functional>
+#include <queue>
 #include <string>
 #include <vector>
 
@@ -30,6 +32,10 @@ class Simulator {
   utime_t start_;
   utime_t end_;
   SourceList sources_;  // SITE first, then the models' in registry order: ties go to the first
+  // (next event time, source index), earliest first.
+  std::priority_queue<std::pair<int64_t, size_t>, std::vector<std::pair<int64_t, size_t>>,
+                      std::greater<>>
+      queue_;
 };
 
 }  // namespace ips::sim
