@@ -70,6 +70,10 @@ sleep 0.5
 stop $twr ips-uwb-twr
 stop $logger lcm-logger
 check_bound "$WORK/live.lcm" POSE_UWB
+# Every sensor of the lab scenario went over the bus live and into the log.
+for channel in SITE TRUTH UWB_RANGE UWB_RX BLE_AOA IMU BARO INS_MODULE POSE_UWB HEALTH; do
+  grep -aq "$channel" "$WORK/live.lcm" || fail "no $channel message in the live log"
+done
 # The estimator's health_t (1 Hz, with its process name) reached the log too.
 grep -aq 'ips-uwb-twr' "$WORK/live.lcm" || fail "no HEALTH message from ips-uwb-twr in the log"
 
