@@ -1,6 +1,10 @@
 // UWB two-way ranging between every enabled `uwb` anchor and every walker (UWB_RANGE):
-// Gaussian noise, a constant bias, NLOS outliers with a uniform positive bias, packet loss and a
-// maximum range. Ranging is time-multiplexed: each (tag, anchor) pair has its own slot.
+// Gaussian noise, a constant bias, NLOS with a uniform positive bias, packet loss and a maximum
+// range. NLOS comes either as independent outliers (nlos_episode_s 0) or as episodes: a two-state
+// Markov chain per (tag, anchor) pair whose stationary NLOS share is nlos_probability and whose
+// mean episode length is nlos_episode_s, with one bias per episode (a person or a pillar blocking
+// the direct path for a while). Ranging is time-multiplexed: each pair has its own slot; the rate
+// can be set per anchor.
 #include <algorithm>
 #include <ips/uwb_range_t.hpp>
 
@@ -19,14 +23,16 @@ struct UwbTwrParams {
   double nlos_bias_max_m = 1.5;
   double loss_probability = 0.0;
   double max_range_m = 100.0;
+  double nlos_episode_s = 0.0;    // 0: independent outliers; > 0: mean NLOS episode length
 };
 
 class UwbTwrSource : public PeriodicSource {
  public:
-  UwbTwrSource(const UwbTwrParams& p, const TagTrajectory& walker, const Anchor& anchor,
-               int64_t phase_us, std::mt19937_64 rng)
-      : PeriodicSource(period_us(p.rate_hz), phase_us),
+  UwbTwrSource(const UwbTwrParams& p, double rate_hz, const TagTrajectory& walker,
+               const Anchor& anchor, int64_t phase_us, std::mt19937_64 rng)
+      : PeriodicSource(period_us(rate_hz), phase_us),
         p_(p),
+        dt_s_(1.0 / rate_hz),
         walker_(walker),
         anchor_(anchor),
         rng_(std::move(rng)) {}
@@ -42,10 +48,25 @@ class UwbTwrSource : public PeriodicSource {
     const double u_bias = uni(rng_);
     const double noise = gauss(rng_);
     const int32_t seq = seq_++;
+    const double draw_bias = p_.nlos_bias_min_m + u_bias * (p_.nlos_bias_max_m - p_.nlos_bias_min_m);
+    if (p_.nlos_episode_s > 0) {
+      // Leave an episode with probability dt/T; enter with the rate that keeps the NLOS share
+      // at nlos_probability (balance: P(in) * p_exit = P(out) * p_enter).
+      const double p_exit = std::min(1.0, dt_s_ / p_.nlos_episode_s);
+      const double p_enter =
+          p_.nlos_probability >= 1 ? 1.0
+                                   : std::min(1.0, p_exit * p_.nlos_probability / (1 - p_.nlos_probability));
+      if (in_nlos_ ? u_nlos < p_exit : u_nlos < p_enter) {
+        in_nlos_ = !in_nlos_;
+        episode_bias_m_ = draw_bias;
+      }
+    } else {
+      in_nlos_ = u_nlos < p_.nlos_probability;
+      episode_bias_m_ = draw_bias;
+    }
     if (u_loss < p_.loss_probability || true_range > p_.max_range_m) return false;
     double r = true_range + p_.bias_m + p_.noise_sigma_m * noise;
-    if (u_nlos < p_.nlos_probability)
-      r += p_.nlos_bias_min_m + u_bias * (p_.nlos_bias_max_m - p_.nlos_bias_min_m);
+    if (in_nlos_) r += episode_bias_m_;
     uwb_range_t m;
     m.utime = t;
     m.source = kSimSource;
@@ -60,6 +81,9 @@ class UwbTwrSource : public PeriodicSource {
 
  private:
   UwbTwrParams p_;
+  double dt_s_;
+  bool in_nlos_ = false;
+  double episode_bias_m_ = 0;
   const TagTrajectory& walker_;
   const Anchor& anchor_;
   std::mt19937_64 rng_;
@@ -68,7 +92,8 @@ class UwbTwrSource : public PeriodicSource {
 
 SourceList make(const YamlField& f, const SimWorld& world) {
   f.check_keys({"enabled", "rate_hz", "noise_sigma_m", "bias_m", "nlos_probability",
-                "nlos_bias_min_m", "nlos_bias_max_m", "loss_probability", "max_range_m"});
+                "nlos_bias_min_m", "nlos_bias_max_m", "loss_probability", "max_range_m",
+                "nlos_episode_s", "anchor_rates_hz"});
   UwbTwrParams p;
   p.rate_hz = param_in_range(f, "rate_hz", p.rate_hz, 0.01, 1000);
   p.noise_sigma_m = param_in_range(f, "noise_sigma_m", p.noise_sigma_m, 0, 100);
@@ -78,6 +103,17 @@ SourceList make(const YamlField& f, const SimWorld& world) {
   p.nlos_bias_max_m = param_in_range(f, "nlos_bias_max_m", p.nlos_bias_max_m, p.nlos_bias_min_m, 100);
   p.loss_probability = param_in_range(f, "loss_probability", p.loss_probability, 0, 1);
   p.max_range_m = param_in_range(f, "max_range_m", p.max_range_m, 0, 1e6);
+  p.nlos_episode_s = param_in_range(f, "nlos_episode_s", p.nlos_episode_s, 0, 3600);
+  // Per-anchor rates: {A1: 5, A3: 20}; other anchors range at rate_hz.
+  const YamlField rates = f["anchor_rates_hz"];
+  if (rates.defined() && !rates.is_map()) rates.fail("expected a map of anchor id to rate in Hz");
+  if (rates.is_map())
+    for (const auto& kv : rates.node()) {
+      const std::string id = kv.first.Scalar();
+      const Anchor* a = world.site.find_anchor(id);
+      if (!a || a->kind != "uwb") rates[id].fail("no uwb anchor '" + id + "' in the site");
+      param_in_range(rates, id.c_str(), p.rate_hz, 0.01, 1000);
+    }
 
   std::vector<const Anchor*> anchors;
   for (const auto& a : world.site.anchors)
@@ -89,7 +125,7 @@ SourceList make(const YamlField& f, const SimWorld& world) {
   for (const auto& w : world.walkers)
     for (const Anchor* a : anchors)
       out.push_back(std::make_unique<UwbTwrSource>(
-          p, w, *a, (slot++ * period) / slots + 1000,
+          p, rates.get_double(a->id, p.rate_hz), w, *a, (slot++ * period) / slots + 1000,
           stream_rng(world.seed, "UWB_RANGE " + w.tag_id + " " + a->id)));
   return out;
 }
