@@ -453,16 +453,9 @@ TEST(BleAoaModel, RssiFollowsLogDistancePathLossAndValuesAreWholeNumbers) {
 }
 
 TEST(BleAoaModel, SameSeedSameBytes) {
-  auto events = [](uint64_t seed) {
-    Scenario sc = load_scenario("aoa-hall");
-    sc.duration_s = 20;
-    Simulator sim(sc, seed, kStart);
-    std::vector<SimEvent> out;
-    SimEvent e;
-    while (sim.next(e))
-      if (e.kind == "BLE_AOA") out.push_back(e);
-    return out;
-  };
+  Scenario sc = load_scenario("aoa-hall");
+  sc.duration_s = 20;
+  auto events = [&](uint64_t seed) { return simulated_events(sc, seed, "BLE_AOA"); };
   const auto a = events(7), b = events(7), c = events(8);
   ASSERT_GT(a.size(), 700u);
   ASSERT_EQ(a.size(), b.size());

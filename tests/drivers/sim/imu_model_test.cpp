@@ -426,14 +426,7 @@ TEST(ImuModel, FootMountHasStillStancePhasesAndConsistentStrides) {
 TEST(ImuModel, SameSeedSameBytesOtherSeedOtherNoise) {
   Scenario sc = load_scenario("walk-square");
   sc.duration_s = 30;
-  auto collect = [&](uint64_t seed) {
-    Simulator sim(sc, seed, kStart);
-    std::vector<SimEvent> out;
-    SimEvent e;
-    while (sim.next(e))
-      if (e.kind == "IMU") out.push_back(e);
-    return out;
-  };
+  auto collect = [&](uint64_t seed) { return simulated_events(sc, seed, "IMU"); };
   const auto a = collect(7), b = collect(7), c = collect(8);
   ASSERT_EQ(a.size(), b.size());
   ASSERT_EQ(a.size(), c.size());
