@@ -77,6 +77,20 @@ done
 # The estimator's health_t (1 Hz, with its process name) reached the log too.
 grep -aq 'ips-uwb-twr' "$WORK/live.lcm" || fail "no HEALTH message from ips-uwb-twr in the log"
 
+# --- 1b: live equivalence: ips-replay of the live log regenerates POSE_UWB from the same inputs.
+# Tolerance: horizontal RMSE within 0.01 m and estimate count within 2 % of the live run (the live
+# tracker sees the same ranges in the same order; only messages lost on the bus could differ).
+"$BIN/ips-replay" "$WORK/live.lcm" --out "$WORK/replayed.lcm" --log-level warn || fail "ips-replay failed"
+live_json=$("$BIN/ips-eval" --json "$WORK/live.lcm")
+rep_json=$("$BIN/ips-eval" --json "$WORK/replayed.lcm")
+lr=$(field "$live_json" POSE_UWB rmse_h); rr=$(field "$rep_json" POSE_UWB rmse_h)
+lc=$(field "$live_json" POSE_UWB count); rc_=$(field "$rep_json" POSE_UWB count)
+awk -v a="$lr" -v b="$rr" -v c="$lc" -v d="$rc_" 'BEGIN {
+  dr = a - b; if (dr < 0) dr = -dr; dc = c - d; if (dc < 0) dc = -dc
+  exit !(a != "" && b != "" && dr <= 0.01 && dc <= 0.02 * c) }' ||
+  fail "live POSE_UWB rmse $lr count $lc vs ips-replay rmse $rr count $rc_"
+echo "live vs ips-replay: rmse_h $lr vs $rr, count $lc vs $rc_ (tolerance 0.01 m, 2 %): ok"
+
 # --- 2: replay with the real lcm-logplayer ----------------------------------------------------
 lcm-logger -q -f -c 'POSE_UWB_REPLAY' "$WORK/replay.lcm" & logger=$!; pids+=($logger)
 "$BIN/ips-uwb-twr" --channel POSE_UWB=POSE_UWB_REPLAY --log-level warn & twr=$!; pids+=($twr)

@@ -1,0 +1,126 @@
+// ips-replay: feeds a log, in file order, through every estimator hosted in this one process and
+// writes the inputs plus the new estimates to a new log. The same input and binary give a
+// byte-identical output.
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <lcm/lcm-cpp.hpp>
+#include <sstream>
+#include <spdlog/spdlog.h>
+
+#include "core/cli.hpp"
+#include "loggers/replay/replay_host.hpp"
+
+int main(int argc, char** argv) {
+  CLI::App app{"ips-replay: runs a log through every estimator in one process, as fast as the CPU "
+               "allows, and writes the inputs plus the new estimates (POSE_UWB, ...) to OUT. "
+               "Input channels that the hosted estimators produce are regenerated, not copied.",
+               "ips-replay"};
+  ips::CommonOptions opts;
+  ips::add_common_options(app, opts, {.lcm = false, .site = true, .channels = true});
+  std::string in_path, out_path, only;
+  bool keep = false;
+  app.add_option("IN", in_path, "input LCM log")->required();
+  app.add_option("--out", out_path, "output LCM log (overwritten)")->required();
+  app.add_option("--only", only, "comma-separated estimators to host (default: all; available: " +
+                                      [] {
+                                        std::string s;
+                                        for (const auto& n : ips::replay::ReplayHost::available())
+                                          s += (s.empty() ? "" : ", ") + n;
+                                        return s;
+                                      }() +
+                                      ")");
+  app.add_flag("--keep", keep, "also copy input events on channels the estimators regenerate");
+  int rc = 0;
+  if (!ips::parse_command_line(app, opts, argc, argv, rc)) return rc;
+
+  return ips::run_reporting_errors("ips-replay", [&]() -> int {
+    ips::replay::ReplayOptions ro;
+    ro.keep_regenerated = keep;
+    ro.site_path = opts.site_path;
+    std::stringstream names(only);
+    for (std::string n; std::getline(names, n, ',');)
+      if (!n.empty()) ro.only.insert(n);
+
+    std::error_code ec;
+    if (!std::filesystem::is_regular_file(in_path, ec)) {
+      ips::print_fatal("ips-replay", "cannot read log '" + in_path + "': not a regular file");
+      return 2;
+    }
+    const auto in_size = std::filesystem::file_size(in_path, ec);
+    lcm::LogFile in(in_path, "r");
+    if (!in.good()) {
+      ips::print_fatal("ips-replay", "cannot open log '" + in_path + "'");
+      return 2;
+    }
+    lcm::LogFile out(out_path, "w");
+    if (!out.good()) {
+      ips::print_fatal("ips-replay", "cannot write log '" + out_path + "'");
+      return 2;
+    }
+    int64_t written = 0;
+    bool write_failed = false;
+    ips::replay::ReplayHost host(ro, opts, [&](const std::string& channel, int64_t timestamp,
+                                               const uint8_t* data, size_t size) {
+      lcm::LogEvent le;
+      le.eventnum = written++;
+      le.timestamp = timestamp;
+      le.channel = channel;
+      le.datalen = static_cast<int32_t>(size);
+      le.data = const_cast<uint8_t*>(data);
+      if (out.writeEvent(&le) != 0) write_failed = true;
+    });
+
+    const bool tty = isatty(STDERR_FILENO);
+    const auto t0 = std::chrono::steady_clock::now();
+    auto next_progress = t0;
+    long read_up_to = 0;
+    int64_t first_ts = 0, last_ts = 0;
+    while (const lcm::LogEvent* e = in.readNextEvent()) {
+      read_up_to = std::ftell(in.getFilePtr());
+      if (host.stats().events_in == 0) first_ts = e->timestamp;
+      last_ts = e->timestamp;
+      host.process(e->channel, e->timestamp, static_cast<const uint8_t*>(e->data),
+                   static_cast<size_t>(e->datalen));
+      if (write_failed) {
+        ips::print_fatal("ips-replay", "write to '" + out_path + "' failed (disk full?)");
+        return 1;
+      }
+      if (tty && std::chrono::steady_clock::now() >= next_progress) {
+        std::fprintf(stderr, "\rips-replay: %3.0f %%", 100.0 * static_cast<double>(read_up_to) /
+                                                        static_cast<double>(std::max<uintmax_t>(1, in_size)));
+        next_progress += std::chrono::milliseconds(200);
+      }
+    }
+    if (tty) std::fprintf(stderr, "\r");
+    if (std::fflush(out.getFilePtr()) != 0 || std::ferror(out.getFilePtr())) {
+      ips::print_fatal("ips-replay", "write to '" + out_path + "' failed (disk full?)");
+      return 1;
+    }
+    const auto& s = host.stats();
+    if (s.events_in == 0 && in_size > 0) {
+      ips::print_fatal("ips-replay", "'" + in_path + "' is not an LCM log (no readable event)");
+      return 2;
+    }
+    if (static_cast<uintmax_t>(read_up_to) < in_size) {
+      std::fprintf(stderr,
+                   "ips-replay: warning: %s: read %lld events, then stopped at byte %ld of %ju "
+                   "(the log is cut short or damaged there); replayed what was read\n",
+                   in_path.c_str(), static_cast<long long>(s.events_in), read_up_to, in_size);
+    }
+    const double secs =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    const double span = 1e-6 * static_cast<double>(last_ts - first_ts);
+    std::string hosted;
+    for (const auto& n : host.hosted()) hosted += (hosted.empty() ? "" : ", ") + n;
+    spdlog::info("ips-replay: {} events in ({} passed through, {} regenerated channel events "
+                 "dropped), {} estimates out [{}]; {} undecodable, {} bad sites; {:.2f} s "
+                 "({:.0f} events/s, {:.0f}x real time)",
+                 s.events_in, s.passed_through, s.dropped_regenerated, s.estimates_out, hosted,
+                 s.undecodable, s.bad_sites, secs, static_cast<double>(s.events_in) / secs,
+                 secs > 0 ? span / secs : 0.0);
+    return 0;
+  });
+}

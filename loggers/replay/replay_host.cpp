@@ -1,0 +1,89 @@
+#include "loggers/replay/replay_host.hpp"
+
+#include <algorithm>
+#include <ips/site_t.hpp>
+#include <ips/uwb_range_t.hpp>
+
+#include "core/channels.hpp"
+#include "core/node.hpp"
+
+namespace ips::replay {
+
+namespace {
+constexpr const char* kUwbTwr = "uwb_twr";
+}
+
+std::vector<std::string> ReplayHost::available() { return {kUwbTwr}; }
+
+ReplayHost::ReplayHost(const ReplayOptions& opts, const CommonOptions& channels, Sink sink)
+    : channels_(channels), sink_(std::move(sink)), opts_(opts) {
+  for (const auto& name : opts_.only) {
+    const auto all = available();
+    if (std::find(all.begin(), all.end(), name) == all.end()) {
+      std::string names;
+      for (const auto& n : all) names += (names.empty() ? "" : ", ") + n;
+      throw ConfigError("--only: unknown estimator '" + name + "' (" + names + ")");
+    }
+  }
+  auto wanted = [&](const char* name) { return opts_.only.empty() || opts_.only.count(name); };
+  if (wanted(kUwbTwr)) {
+    const std::string out = channels_.channel(channel::kPoseUwb);
+    twr_ = std::make_unique<uwb_twr::TwrEstimator>([this, out](const pose_t& p) { emit(out, p); });
+    produced_channels_.insert(out);
+  }
+  if (!opts_.site_path.empty()) apply_site(load_site_file(opts_.site_path));
+}
+
+std::vector<std::string> ReplayHost::hosted() const {
+  std::vector<std::string> names;
+  if (twr_) names.push_back(kUwbTwr);
+  return names;
+}
+
+template <class Msg>
+void ReplayHost::emit(const std::string& channel, const Msg& msg) {
+  buffer_.resize(static_cast<size_t>(msg.getEncodedSize()));
+  msg.encode(buffer_.data(), 0, static_cast<int>(buffer_.size()));
+  ++stats_.estimates_out;
+  sink_(channel, now_timestamp_, buffer_.data(), buffer_.size());
+}
+
+void ReplayHost::apply_site(const Site& site) {
+  if (twr_) twr_->set_site(site);
+}
+
+void ReplayHost::process(const std::string& channel, int64_t timestamp, const uint8_t* data,
+                         size_t size) {
+  ++stats_.events_in;
+  now_timestamp_ = timestamp;
+  // Inputs pass through first, so each estimate follows the input that caused it.
+  if (produced_channels_.count(channel) && !opts_.keep_regenerated) {
+    ++stats_.dropped_regenerated;
+  } else {
+    ++stats_.passed_through;
+    sink_(channel, timestamp, data, size);
+  }
+  if (channel == channels_.channel(channel::kSite) && opts_.site_path.empty()) {
+    site_t m;
+    if (!decode_message(m, data, size)) {
+      ++stats_.undecodable;
+      return;
+    }
+    if (m.site_yaml == last_site_yaml_) return;
+    try {
+      apply_site(site_from_msg(m));
+      last_site_yaml_ = m.site_yaml;
+    } catch (const ConfigError&) {
+      ++stats_.bad_sites;
+    }
+  } else if (twr_ && channel == channels_.channel(channel::kUwbRange)) {
+    uwb_range_t m;
+    if (!decode_message(m, data, size)) {
+      ++stats_.undecodable;
+      return;
+    }
+    twr_->on_range(m);
+  }
+}
+
+}  // namespace ips::replay
