@@ -33,9 +33,21 @@ void Evaluator::add_estimate(const std::string& channel, const pose_t& m) {
   estimates_[{channel, m.tag_id}].push_back({m.utime, m.position[0], m.position[1], m.position[2]});
 }
 
+void Evaluator::set_static_point(const Eigen::Vector3d& point, bool has_height) {
+  static_mode_ = true;
+  static_point_ = point;
+  static_has_height_ = has_height;
+}
+
 bool Evaluator::truth_at(const std::string& tag, utime_t t, double& x, double& y,
                          double& z) const {
   if (!plausible_utime(t)) return false;
+  if (static_mode_) {
+    x = static_point_.x();
+    y = static_point_.y();
+    z = static_has_height_ ? static_point_.z() : std::numeric_limits<double>::quiet_NaN();
+    return true;
+  }
   auto it = truth_.find(tag);
   if (it == truth_.end() || it->second.empty()) return false;
   const auto& s = it->second;
@@ -61,9 +73,8 @@ std::vector<ErrorRow> Evaluator::rows() const {
     ErrorRow row;
     row.channel = key.first;
     row.tag = key.second;
-    std::vector<double> h;
+    std::vector<double> h, v;
     double sum = 0, sum_sq = 0, sum_sq_v = 0;
-    size_t count_v = 0;
     for (const auto& e : est) {
       double x, y, z;
       if (!truth_at(row.tag, e.utime, x, y, z)) continue;
@@ -78,7 +89,7 @@ std::vector<ErrorRow> Evaluator::rows() const {
       sum_sq += eh * eh;
       if (std::isfinite(ev)) {
         sum_sq_v += ev * ev;
-        ++count_v;
+        v.push_back(std::abs(ev));
       }
     }
     row.count = h.size();
@@ -86,8 +97,14 @@ std::vector<ErrorRow> Evaluator::rows() const {
       const double n = static_cast<double>(row.count);
       row.mean_h = sum / n;
       row.rmse_h = std::sqrt(sum_sq / n);
-      row.rmse_v = count_v ? std::sqrt(sum_sq_v / static_cast<double>(count_v))
-                           : std::numeric_limits<double>::quiet_NaN();
+      const double nv = static_cast<double>(v.size());
+      row.rmse_v = v.empty() ? std::numeric_limits<double>::quiet_NaN() : std::sqrt(sum_sq_v / nv);
+      double sum_v = 0;
+      for (double x : v) sum_v += x;
+      row.mean_v = v.empty() ? std::numeric_limits<double>::quiet_NaN() : sum_v / nv;
+      row.median_v = percentile(v, 50);
+      row.p95_v = percentile(v, 95);
+      row.max_v = v.empty() ? std::numeric_limits<double>::quiet_NaN() : v.back();
       row.median_h = percentile(h, 50);
       row.p95_h = percentile(h, 95);
       row.max_h = h.back();

@@ -2,6 +2,7 @@
 // Scores estimates against ground truth: for every estimate channel and tag, the horizontal error
 // to TRUTH linearly interpolated at the estimate's utime (count, mean, RMSE, median, 95th
 // percentile, max) and the RMSE of the vertical error. Pure: fed messages, returns numbers.
+#include <Eigen/Core>
 #include <ips/pose_t.hpp>
 #include <map>
 #include <string>
@@ -17,8 +18,13 @@ struct ErrorRow {
   std::string tag;
   size_t count = 0;
   size_t non_finite = 0;  // estimates with a NaN/inf horizontal position: not scored, counted
+  // Horizontal error. CEP50 and CEP95 (circular error probable: the radius holding 50 % and 95 %
+  // of the estimates) are the median and the 95th percentile of the horizontal error.
   double mean_h = 0, rmse_h = 0, median_h = 0, p95_h = 0, max_h = 0;
-  double rmse_v = 0;  // over estimates with a finite height; NaN when none has one
+  double cep50() const { return median_h; }
+  double cep95() const { return p95_h; }
+  // Vertical error |dz|, over estimates with a finite height; NaN when none has one.
+  double rmse_v = 0, mean_v = 0, median_v = 0, p95_v = 0, max_v = 0;
 };
 
 // Percentile p in [0, 100] of `values` with linear interpolation between order statistics
@@ -29,6 +35,10 @@ class Evaluator {
  public:
   // Truth further than this from an estimate's time on both sides is not interpolated across.
   explicit Evaluator(double max_truth_gap_s = 1.0) : max_gap_us_(s_to_utime(max_truth_gap_s)) {}
+
+  // Static-point mode, the way the source experiments were scored: every estimate is compared
+  // with this known point instead of TRUTH (z compared only when has_height).
+  void set_static_point(const Eigen::Vector3d& point, bool has_height);
 
   void add_truth(const pose_t& truth);
   void add_estimate(const std::string& channel, const pose_t& estimate);
@@ -48,6 +58,9 @@ class Evaluator {
 
   utime_t max_gap_us_;
   size_t bad_truth_ = 0;
+  bool static_mode_ = false;
+  bool static_has_height_ = false;
+  Eigen::Vector3d static_point_ = Eigen::Vector3d::Zero();
   std::map<std::string, std::vector<Sample>> truth_;  // per tag
   std::map<std::pair<std::string, std::string>, std::vector<Sample>> estimates_;
 };

@@ -50,6 +50,13 @@ int main(int argc, char** argv) {
   bool json = false;
   app.add_option("LOG", log_path, "LCM log file")->required();
   app.add_flag("--json", json, "print {\"rows\": [...]} instead of a table");
+  std::vector<double> static_point;
+  app.add_option("--static-point", static_point,
+                 "static-point mode: score every estimate against this known point instead of "
+                 "TRUTH (z only when given)")
+      ->type_name("X,Y[,Z]")
+      ->delimiter(',')
+      ->expected(2, 3);
   int rc = 0;
   if (!ips::parse_command_line(app, opts, argc, argv, rc)) return rc;
 
@@ -71,6 +78,14 @@ int main(int argc, char** argv) {
   }
   const std::string truth_channel = opts.channel(ips::channel::kTruth);
   ips::eval::Evaluator ev;
+  if (!static_point.empty()) {
+    if (static_point.size() < 2 || !std::isfinite(static_point[0]) || !std::isfinite(static_point[1])) {
+      ips::print_fatal("ips-eval", "--static-point: expected X,Y or X,Y,Z in metres");
+      return 2;
+    }
+    ev.set_static_point({static_point[0], static_point[1], static_point.size() > 2 ? static_point[2] : 0.0},
+                        static_point.size() > 2);
+  }
   int64_t events = 0, poses = 0, truth = 0;
   std::set<std::string> skipped_channels;
   long read_up_to = 0;
@@ -110,9 +125,11 @@ int main(int argc, char** argv) {
       std::printf("%s{\"channel\": %s, \"tag\": %s, \"count\": %zu, \"non_finite\": %zu",
                   i ? ", " : "", json_string(r.channel).c_str(), json_string(r.tag).c_str(),
                   r.count, r.non_finite);
-      const std::pair<const char*, double> fields[] = {{"mean_h", r.mean_h},   {"rmse_h", r.rmse_h},
-                                                       {"median_h", r.median_h}, {"p95_h", r.p95_h},
-                                                       {"max_h", r.max_h},     {"rmse_v", r.rmse_v}};
+      const std::pair<const char*, double> fields[] = {
+          {"mean_h", r.mean_h},     {"rmse_h", r.rmse_h},     {"median_h", r.median_h},
+          {"p95_h", r.p95_h},       {"max_h", r.max_h},       {"rmse_v", r.rmse_v},
+          {"cep50_h", r.cep50()},   {"cep95_h", r.cep95()},   {"mean_v", r.mean_v},
+          {"median_v", r.median_v}, {"p95_v", r.p95_v},       {"max_v", r.max_v}};
       for (const auto& [name, v] : fields) {
         std::printf(", \"%s\": ", name);
         print_json_number(r.count ? v : NAN);
@@ -129,9 +146,18 @@ int main(int argc, char** argv) {
                     ips::printable(r.tag).c_str(), r.count, "-", "-", "-", "-", "-", "-");
         continue;
       }
-      std::printf("%-14s %-10s %7zu %8.3f %8.3f %8.3f %8.3f %8.3f %8.3f\n",
-                  ips::printable(r.channel).c_str(), ips::printable(r.tag).c_str(), r.count, r.mean_h,
-                  r.rmse_h, r.median_h, r.p95_h, r.max_h, r.rmse_v);
+      auto num = [](double v) {
+        char buf[32];
+        if (std::isfinite(v))
+          std::snprintf(buf, sizeof buf, "%8.3f", v);
+        else
+          std::snprintf(buf, sizeof buf, "%8s", "-");  // not measured (e.g. no height)
+        return std::string(buf);
+      };
+      std::printf("%-14s %-10s %7zu %s %s %s %s %s %s\n", ips::printable(r.channel).c_str(),
+                  ips::printable(r.tag).c_str(), r.count, num(r.mean_h).c_str(),
+                  num(r.rmse_h).c_str(), num(r.median_h).c_str(), num(r.p95_h).c_str(),
+                  num(r.max_h).c_str(), num(r.rmse_v).c_str());
     }
     std::printf("(errors in metres; %lld log events, %lld truth samples, %lld estimates, %zu "
                 "estimates without truth around them)\n",
@@ -146,7 +172,7 @@ int main(int argc, char** argv) {
   if (ev.bad_truth() > 0)
     std::fprintf(stderr, "ips-eval: warning: %zu truth samples with a non-finite position or bad "
                  "utime were ignored\n", ev.bad_truth());
-  if (truth == 0) std::fprintf(stderr, "ips-eval: warning: no %s messages in %s\n", truth_channel.c_str(), log_path.c_str());
+  if (truth == 0 && static_point.empty()) std::fprintf(stderr, "ips-eval: warning: no %s messages in %s\n", truth_channel.c_str(), log_path.c_str());
   if (rows.empty()) std::fprintf(stderr, "ips-eval: warning: no pose estimates in %s\n", log_path.c_str());
   return 0;
 }

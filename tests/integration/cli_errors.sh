@@ -65,6 +65,7 @@ expect 2 "^ips-eval: error: cannot read log '.*': not a regular file" "$BIN/ips-
 head -c 20000 "$WORK/full.lcm" >"$WORK/cut.lcm"
 expect 0 "^ips-eval: warning: .*cut.lcm: read [0-9]+ events, then stopped at byte [0-9]+ of 20000" \
   "$BIN/ips-eval" "$WORK/cut.lcm"
+expect 2 "^ips-eval: error: --static-point: At least 2 required" "$BIN/ips-eval" "$WORK/full.lcm" --static-point 5
 expect 2 "^ips-sim: error: --out excludes --speed" \
   "$BIN/ips-sim" --scenario lab --out "$WORK/y.lcm" --speed 2
 expect 2 "^ips-uwb-twr: error: --channel: unknown kind 'POSE_UBW'" \

@@ -107,6 +107,35 @@ TEST(Evaluator, NonFiniteEstimatesAreCountedNotHidden) {
   EXPECT_EQ(ev.bad_truth(), 1u);
 }
 
+TEST(Evaluator, VerticalStatisticsAndCepAliases) {
+  Evaluator ev;
+  ev.add_truth(pose(0, "T", 0, 0, 1));
+  ev.add_truth(pose(1'000'000, "T", 0, 0, 1));
+  ev.add_estimate("P", pose(100'000, "T", 0, 0, 1.1));
+  ev.add_estimate("P", pose(200'000, "T", 0, 0, 0.7));
+  ev.add_estimate("P", pose(300'000, "T", 0, 0, 1.2));
+  auto r = ev.rows()[0];
+  EXPECT_NEAR(r.mean_v, (0.1 + 0.3 + 0.2) / 3, 1e-12);
+  EXPECT_NEAR(r.median_v, 0.2, 1e-12);
+  EXPECT_NEAR(r.max_v, 0.3, 1e-12);
+  EXPECT_NEAR(r.p95_v, 0.2 + 0.9 * 0.1, 1e-12);
+  EXPECT_EQ(r.cep50(), r.median_h);
+  EXPECT_EQ(r.cep95(), r.p95_h);
+}
+
+TEST(Evaluator, StaticPointModeScoresAgainstTheKnownPoint) {
+  Evaluator ev;
+  ev.set_static_point({2.186, 3.369, 0}, false);  // aoa-hall point T1, no height
+  ev.add_estimate("POSE_AOA", pose(0, "T", 2.186 + 0.3, 3.369 + 0.4, 5.0));
+  ev.add_estimate("POSE_AOA", pose(1'000'000, "T", 2.186, 3.369 - 1.0, 5.0));
+  auto r = ev.rows()[0];
+  EXPECT_EQ(r.count, 2u);
+  EXPECT_NEAR(r.max_h, 1.0, 1e-12);
+  EXPECT_NEAR(r.mean_h, 0.75, 1e-12);
+  EXPECT_TRUE(std::isnan(r.rmse_v));  // no height given: not scored
+  EXPECT_EQ(ev.unmatched(), 0u);
+}
+
 TEST(Evaluator, OutOfOrderTruthIsSorted) {
   Evaluator ev;
   ev.add_truth(pose(1'000'000, "T", 1, 0, 0));
