@@ -23,4 +23,23 @@ inline std::string printable(std::string_view s) {
   return out;
 }
 
+// A JSON string literal (quotes included): quote and backslash escaped, control characters and
+// DEL as \u00XX; other bytes (UTF-8 included) as they are.
+inline std::string json_quote(std::string_view s) {
+  std::string out = "\"";
+  for (unsigned char c : s) {
+    if (c == '"' || c == '\\') {
+      out += '\\';
+      out += static_cast<char>(c);
+    } else if (c < 0x20 || c == 0x7f) {
+      char buf[8];
+      std::snprintf(buf, sizeof buf, "\\u%04x", c);
+      out += buf;
+    } else {
+      out += static_cast<char>(c);
+    }
+  }
+  return out + "\"";
+}
+
 }  // namespace ips

@@ -20,23 +20,6 @@ void print_json_number(double v) {
     std::printf("null");
 }
 
-// Channel and tag names came off the wire: escape them for JSON.
-std::string json_string(const std::string& s) {
-  std::string out = "\"";
-  for (unsigned char c : s) {
-    if (c == '"' || c == '\\') {
-      out += '\\';
-      out += static_cast<char>(c);
-    } else if (c < 0x20 || c == 0x7f) {
-      char buf[8];
-      std::snprintf(buf, sizeof buf, "\\u%04x", c);
-      out += buf;
-    } else {
-      out += static_cast<char>(c);
-    }
-  }
-  return out + "\"";
-}
 
 }  // namespace
 
@@ -123,7 +106,7 @@ int main(int argc, char** argv) {
     for (size_t i = 0; i < rows.size(); ++i) {
       const auto& r = rows[i];
       std::printf("%s{\"channel\": %s, \"tag\": %s, \"count\": %zu, \"non_finite\": %zu",
-                  i ? ", " : "", json_string(r.channel).c_str(), json_string(r.tag).c_str(),
+                  i ? ", " : "", ips::json_quote(r.channel).c_str(), ips::json_quote(r.tag).c_str(),
                   r.count, r.non_finite);
       const std::pair<const char*, double> fields[] = {
           {"mean_h", r.mean_h},     {"rmse_h", r.rmse_h},     {"median_h", r.median_h},

@@ -1,5 +1,7 @@
 #include "loggers/export/log_export.hpp"
 
+#include "core/text_escape.hpp"
+
 #include <charconv>
 #include <cmath>
 #include <cstdio>
@@ -307,22 +309,6 @@ std::string csv_quote(std::string_view s) {
   return out + "\"";
 }
 
-std::string json_quote(std::string_view s) {
-  std::string out = "\"";
-  for (unsigned char c : s) {
-    if (c == '"' || c == '\\') {
-      out += '\\';
-      out += static_cast<char>(c);
-    } else if (c < 0x20 || c == 0x7f) {
-      char buf[8];
-      std::snprintf(buf, sizeof buf, "\\u%04x", c);
-      out += buf;
-    } else {
-      out += static_cast<char>(c);
-    }
-  }
-  return out + "\"";
-}
 
 std::string csv_line(const std::vector<std::string>& columns) {
   std::string out;

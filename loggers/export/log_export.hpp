@@ -17,6 +17,7 @@
 #include <string_view>
 #include <variant>
 #include <vector>
+#include "core/text_escape.hpp"
 
 namespace ips::log_export {
 
@@ -44,8 +45,8 @@ std::string format_number(float v);
 // RFC 4180: quoted (with quotes doubled) when the text holds a comma, a quote, CR or LF; the bytes
 // are not otherwise altered.
 std::string csv_quote(std::string_view s);
-// A JSON string literal: quotes, backslashes and control characters escaped, other bytes as given.
-std::string json_quote(std::string_view s);
+// JSON string literals: ips::json_quote (core/text_escape.hpp).
+using ips::json_quote;
 
 std::string csv_line(const std::vector<std::string>& columns);  // header, "\n"-terminated
 std::string csv_line(const std::vector<Cell>& row);
