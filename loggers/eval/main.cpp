@@ -8,6 +8,7 @@
 
 #include "core/channels.hpp"
 #include "core/cli.hpp"
+#include "core/log_read_report.hpp"
 #include "core/text_escape.hpp"
 #include "loggers/eval/evaluation.hpp"
 
@@ -89,17 +90,9 @@ int main(int argc, char** argv) {
       ++poses;
     }
   }
-  // liblcm stops at the first event it cannot read (a log cut short, or garbage): say so.
-  if (file_size > 0 && events == 0) {
-    ips::print_fatal("ips-eval", "'" + log_path + "' is not an LCM log (no readable event)");
-    return 2;
-  }
-  if (static_cast<uintmax_t>(read_up_to) < file_size) {
-    std::fprintf(stderr,
-                 "ips-eval: warning: %s: read %lld events, then stopped at byte %ld of %ju (the "
-                 "log is cut short or damaged there); scoring what was read\n",
-                 log_path.c_str(), static_cast<long long>(events), read_up_to, file_size);
-  }
+  if (!ips::log_had_events("ips-eval", log_path, events, file_size)) return 2;
+  ips::warn_if_log_cut("ips-eval", log_path, events, read_up_to, file_size,
+                       "scoring what was read");
   const auto rows = ev.rows();
   if (json) {
     std::printf("{\"rows\": [");

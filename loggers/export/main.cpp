@@ -15,6 +15,7 @@
 #include <cstring>
 
 #include "core/cli.hpp"
+#include "core/log_read_report.hpp"
 #include "core/text_escape.hpp"
 #include "loggers/export/log_export.hpp"
 
@@ -244,10 +245,7 @@ int main(int argc, char** argv) {
     }
   }
 
-  if (file_size > 0 && events == 0) {
-    ips::print_fatal(kProgram, "'" + log_path + "' is not an LCM log (no readable event)");
-    return 2;
-  }
+  if (!ips::log_had_events(kProgram, log_path, events, file_size)) return 2;
   for (const auto& [channel, out] : outs)
     std::printf("%-20s %-12s %8lld messages -> %s.{%s}\n", ips::printable(channel).c_str(),
                 out.type.c_str(), static_cast<long long>(out.messages),
@@ -259,12 +257,8 @@ int main(int argc, char** argv) {
 
   if (file_size == 0)
     std::fprintf(stderr, "%s: warning: %s is empty: nothing exported\n", kProgram, log_path.c_str());
-  if (static_cast<uintmax_t>(read_up_to) < file_size) {
-    std::fprintf(stderr,
-                 "%s: warning: %s: read %lld events, then stopped at byte %ld of %ju (the log is "
-                 "cut short or damaged there); exported what was read\n",
-                 kProgram, log_path.c_str(), static_cast<long long>(events), read_up_to, file_size);
-  }
+  ips::warn_if_log_cut(kProgram, log_path, events, read_up_to, file_size,
+                       "exported what was read");
   if (garbage_bytes > 0)
     std::fprintf(stderr,
                  "%s: warning: %s: skipped %lld damaged bytes in %lld places and read on after "

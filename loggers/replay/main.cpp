@@ -11,6 +11,7 @@
 #include <spdlog/spdlog.h>
 
 #include "core/cli.hpp"
+#include "core/log_read_report.hpp"
 #include "loggers/replay/replay_host.hpp"
 
 int main(int argc, char** argv) {
@@ -100,16 +101,9 @@ int main(int argc, char** argv) {
       return 1;
     }
     const auto& s = host.stats();
-    if (s.events_in == 0 && in_size > 0) {
-      ips::print_fatal("ips-replay", "'" + in_path + "' is not an LCM log (no readable event)");
-      return 2;
-    }
-    if (static_cast<uintmax_t>(read_up_to) < in_size) {
-      std::fprintf(stderr,
-                   "ips-replay: warning: %s: read %lld events, then stopped at byte %ld of %ju "
-                   "(the log is cut short or damaged there); replayed what was read\n",
-                   in_path.c_str(), static_cast<long long>(s.events_in), read_up_to, in_size);
-    }
+    if (!ips::log_had_events("ips-replay", in_path, s.events_in, in_size)) return 2;
+    ips::warn_if_log_cut("ips-replay", in_path, s.events_in, read_up_to, in_size,
+                         "replayed what was read");
     const double secs =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     const double span = 1e-6 * static_cast<double>(last_ts - first_ts);
