@@ -130,6 +130,7 @@ bool Node::spin_once(int timeout_ms) {
     signalfd_siginfo si;
     if (read(signal_fd_, &si, sizeof si) == static_cast<ssize_t>(sizeof si)) {
       spdlog::info("{}: signal {} received, stopping", name_, si.ssi_signo);
+      stop_signal_ = static_cast<int>(si.ssi_signo);
     }
     stopping_ = true;
     return false;

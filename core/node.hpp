@@ -73,6 +73,10 @@ class Node {
   }
   void publish_raw(const std::string& channel, const void* data, size_t size);
 
+  // Subscribes to `channel` (an LCM regex) with the undecoded bytes (a recorder, a bridge).
+  using RawHandler = std::function<void(const lcm::ReceiveBuffer*, const std::string&)>;
+  void subscribe_raw(const std::string& channel, RawHandler handler);
+
   // Calls `fn` every `period_s` seconds of monotonic time (first call one period from now).
   void add_timer(double period_s, std::function<void()> fn);
 
@@ -83,6 +87,8 @@ class Node {
   bool spin_once(int timeout_ms);
   void stop() { stopping_ = true; }
   bool stopping() const { return stopping_; }
+  // The signal that stopped the loop (SIGINT, SIGTERM), or 0.
+  int stop_signal() const { return stop_signal_; }
 
   NodeCounters& counters() { return counters_; }
   // Reports an error in health_t (state degraded) and logs it at a rate limit.
@@ -96,8 +102,6 @@ class Node {
     std::chrono::steady_clock::time_point next;
     std::function<void()> fn;
   };
-  using RawHandler = std::function<void(const lcm::ReceiveBuffer*, const std::string&)>;
-  void subscribe_raw(const std::string& channel, RawHandler handler);
   void dispatch_timers();
 
   std::string name_;
@@ -111,6 +115,7 @@ class Node {
   sigset_t old_sigmask_;
   std::vector<uint8_t> publish_buffer_;
   bool stopping_ = false;
+  int stop_signal_ = 0;
   int8_t state_ = health_t::STATE_OK;
   std::string last_error_;
   std::string health_channel_;

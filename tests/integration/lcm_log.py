@@ -1,0 +1,21 @@
+"""An independent reader of the LCM log format for the integration tests (not our C++ code):
+each event is magic 0xEDA1DA01, eventnum i64, timestamp i64, channel length u32, data length u32
+(big-endian), then the channel and the data."""
+import struct
+
+MAGIC = 0xEDA1DA01
+
+
+def events(path):
+    """(channel, timestamp, data) for every complete event from the start; stops at the first
+    damaged or cut event. Returns (events, bytes_read, file_size)."""
+    data = open(path, 'rb').read()
+    out, i = [], 0
+    while i + 28 <= len(data):
+        magic, _, ts, cl, dl = struct.unpack('>IqqII', data[i:i + 28])
+        if magic != MAGIC or i + 28 + cl + dl > len(data):
+            break
+        out.append((data[i + 28:i + 28 + cl].decode('latin-1'), ts,
+                    data[i + 28 + cl:i + 28 + cl + dl]))
+        i += 28 + cl + dl
+    return out, i, len(data)

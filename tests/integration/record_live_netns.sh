@@ -1,0 +1,135 @@
+#!/usr/bin/env bash
+# ips-record over real LCM multicast in a private network namespace:
+#  1. refusals before anything is written: unwritable target, existing file, nearly full disk;
+#  2. a live lab session (ips-sim, seed 1) recorded in parts of 0.3 MB: every part starts with
+#     SITE, nothing the simulator published is lost, altered or reordered (compared with the same
+#     seed written to a file), the JSON sidecar's counts equal the files', SIGINT ends it with 0;
+#  3. the real lcm-logplayer plays a part back and the real lcm-logger records the same events;
+#  4. a recorder killed with SIGKILL leaves a log that ips-export, ips-eval and ips-replay read.
+# Exit 77 (skipped) when no network namespace can be made here.
+set -euo pipefail
+BIN=$(cd "$1" && pwd)
+HERE=$(cd "$(dirname "$0")" && pwd)
+ROOT=$(cd "$HERE/../.." && pwd)
+if [ "${IPS_IN_NETNS:-}" != "1" ]; then
+  IPS_IN_NETNS=1 exec "$ROOT/scripts/netns-run" "$0" "$@"
+fi
+WORK=$(mktemp -d)
+pids=()
+cleanup() {
+  for p in "${pids[@]}"; do kill -KILL "$p" 2>/dev/null || true; done
+  rm -rf "$WORK"
+}
+trap cleanup EXIT
+export LCM_DEFAULT_URL="udpm://239.255.76.67:7667?ttl=0"
+export PYTHONPATH="$HERE"
+START=1767225600000000
+fail() { echo "FAIL: $*" >&2; exit 1; }
+forget() {  # pid: reaped, so cleanup never signals a reused pid
+  local kept=() p
+  for p in "${pids[@]}"; do [ "$p" = "$1" ] || kept+=("$p"); done
+  pids=("${kept[@]}")
+}
+
+# --- 1: refusals: exit 2, one line saying why, nothing written ---------------------------------
+refuse() {  # expected-text args...
+  local want=$1 rc=0 err
+  shift
+  err=$("$BIN/ips-record" "$@" 2>&1 >/dev/null) || rc=$?
+  [ "$rc" -eq 2 ] || fail "ips-record $*: status $rc (expected 2): $err"
+  [ "$(echo "$err" | wc -l)" -eq 1 ] || fail "ips-record $*: more than one line: $err"
+  echo "$err" | grep -q "$want" || fail "ips-record $*: '$err' does not say '$want'"
+  echo "ok: refused: $err"
+}
+refuse "cannot" --out /proc/ips-record/s.lcm
+touch "$WORK/taken.lcm"
+refuse "exists" --out "$WORK/taken.lcm"
+refuse "disk nearly full" --out "$WORK/full.lcm" --min-free-mb 1e12
+[ ! -e "$WORK/full.lcm" ] && [ ! -e "$WORK/full.json" ] || fail "a refused start wrote files"
+
+"$BIN/ips-bus-check" --timeout 3 || fail "multicast does not loop back inside the namespace"
+
+# --- 2: a live session in parts ----------------------------------------------------------------
+"$BIN/ips-sim" --scenario lab --seed 1 --duration 20 --start-utime $START --out "$WORK/ref.lcm" \
+  --log-level warn
+"$BIN/ips-record" --out "$WORK/rec/s.lcm" --split-mb 0.3 --site-wait 30 --log-level warn \
+  2>"$WORK/record.err" & rec=$!; pids+=($rec)
+"$BIN/ips-bus-check" --wait-for ips-record --timeout 20 || fail "ips-record did not come up"
+"$BIN/ips-sim" --scenario lab --seed 1 --duration 20 --speed 4 --start-utime $START --log-level warn
+sleep 0.5
+kill -INT $rec
+rc=0; wait $rec || rc=$?; forget $rec
+[ "$rc" -eq 0 ] || fail "ips-record exited with $rc after SIGINT: $(cat "$WORK/record.err")"
+python3 - "$WORK/rec" "$WORK/ref.lcm" <<'PY' || fail "the recording does not match what was published"
+import collections, glob, json, os, sys
+import lcm_log
+d, ref_path = sys.argv[1], sys.argv[2]
+side = json.load(open(os.path.join(d, 's.json')))
+assert side['recording'] is False and side['stopped_by'] == 'SIGINT', side
+assert side['dropped'] == 0, side['dropped']
+parts = sorted(glob.glob(os.path.join(d, 's.*.lcm')))
+assert len(parts) >= 3, parts
+assert [p['file'] for p in side['parts']] == [os.path.basename(p) for p in parts], side['parts']
+recorded, counts = [], collections.Counter()
+for p, meta in zip(parts, side['parts']):
+    evs, used, size = lcm_log.events(p)
+    assert used == size, f'{p}: unreadable from byte {used} of {size}'
+    assert evs[0][0] == 'SITE' and meta['site_first'], f'{p} starts with {evs[0][0]}'
+    assert size <= 0.3e6, f'{p}: {size} bytes'
+    assert meta['events'] == len(evs) and meta['bytes'] == size, (meta, len(evs), size)
+    # The head of every part repeats the current SITE; it is not a published message.
+    recorded += evs[1:]
+    for ch, _, _ in evs:
+        counts[ch] += 1
+assert side['events'] == sum(counts.values()), (side['events'], sum(counts.values()))
+assert {ch: c['events'] for ch, c in side['channels'].items()} == dict(counts), (side['channels'], counts)
+ref, _, _ = lcm_log.events(ref_path)
+def by_channel(evs):
+    out = collections.defaultdict(list)
+    for ch, _, data in evs:
+        if ch != 'HEALTH':
+            out[ch].append(data)
+    return out
+got, want = by_channel(recorded), by_channel(ref)
+assert got.keys() == want.keys(), (sorted(got), sorted(want))
+for ch in want:
+    assert got[ch] == want[ch], f'{ch}: {len(got[ch])} recorded, {len(want[ch])} published'
+print(f'ok: {len(parts)} parts, {side["events"]} events, every published message recorded in order')
+PY
+
+# --- 3: the real LCM tools read the parts ----------------------------------------------------
+lcm-logger -q -f "$WORK/played.lcm" & logger=$!; pids+=($logger)
+sleep 0.5
+lcm-logplayer -s 8 "$WORK/rec/s.001.lcm"
+sleep 0.5
+kill -INT $logger; wait $logger || true; forget $logger
+python3 - "$WORK/rec/s.001.lcm" "$WORK/played.lcm" <<'PY' || fail "lcm-logplayer -> lcm-logger lost events"
+import sys, lcm_log
+a = [(c, d) for c, _, d in lcm_log.events(sys.argv[1])[0]]
+b = [(c, d) for c, _, d in lcm_log.events(sys.argv[2])[0] if c != 'LCM_SELF_TEST']
+assert a == b, f'{len(a)} events in the part, {len(b)} played back'
+print(f'ok: lcm-logplayer played all {len(a)} events of a part, lcm-logger recorded them')
+PY
+
+# --- 4: killed with SIGKILL --------------------------------------------------------------------
+"$BIN/ips-record" --out "$WORK/killed.lcm" --flush-ms 50 --site-wait 30 --log-level warn & rec=$!
+pids+=($rec)
+"$BIN/ips-bus-check" --wait-for ips-record --timeout 20 || fail "ips-record did not come up"
+"$BIN/ips-sim" --scenario lab --seed 1 --duration 20 --speed 4 --log-level warn & sim=$!; pids+=($sim)
+sleep 3
+kill -KILL $rec; wait $rec 2>/dev/null || true; forget $rec
+kill -INT $sim; wait $sim || true; forget $sim
+python3 - "$WORK/killed.lcm" "$WORK/killed.json" <<'PY' || fail "the killed recorder's files"
+import json, sys, lcm_log
+evs, used, size = lcm_log.events(sys.argv[1])
+assert len(evs) > 500 and evs[0][0] == 'SITE', (len(evs), evs[:1])
+side = json.load(open(sys.argv[2]))
+assert side['recording'] is True and side['end'] is None, side
+print(f'ok: SIGKILL left {len(evs)} readable events ({size - used} bytes cut), sidecar says recording')
+PY
+"$BIN/ips-export" "$WORK/killed.lcm" --out "$WORK/killed-csv" || fail "ips-export on the killed log"
+[ "$(wc -l < "$WORK/killed-csv/IMU.csv")" -gt 100 ] || fail "ips-export: too few IMU rows"
+"$BIN/ips-eval" "$WORK/killed.lcm" >/dev/null || fail "ips-eval on the killed log"
+"$BIN/ips-replay" "$WORK/killed.lcm" --out "$WORK/killed-replay.lcm" --log-level warn ||
+  fail "ips-replay on the killed log"
+echo "ok: ips-export, ips-eval and ips-replay read the killed recorder's log"
