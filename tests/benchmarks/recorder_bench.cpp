@@ -33,14 +33,17 @@ void BM_RecordLab(benchmark::State& state) {
     ips::record::Recorder r(ro);
     for (const auto& ev : events) r.offer(ev.channel, ev.utime, ev.data.data(), ev.data.size());
     r.stop("benchmark");
-    if (r.stats().written != static_cast<int64_t>(events.size()))
-      state.SkipWithError("not every event was written");
+    if (r.stats().written < static_cast<int64_t>(events.size()))  // (+ the SITE head)
+      state.SkipWithError(("written " + std::to_string(r.stats().written) + " of " +
+                           std::to_string(events.size()) + ", dropped " +
+                           std::to_string(r.stats().dropped))
+                              .c_str());
   }
   std::filesystem::remove_all(dir);
   state.SetItemsProcessed(state.iterations() * static_cast<int64_t>(events.size()));
   state.SetBytesProcessed(state.iterations() * bytes);
   state.counters["events"] = static_cast<double>(events.size());
 }
-BENCHMARK(BM_RecordLab)->Name("ips-record/lab 60 s, 10 tags")->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_RecordLab)->Name("ips-record/lab 60 s, 10 tags")->Unit(benchmark::kMillisecond)->UseRealTime();
 
 }  // namespace
