@@ -114,6 +114,25 @@ std::vector<ErrorRow> Evaluator::rows() const {
   return rows;
 }
 
+std::vector<EstimateSeries> Evaluator::estimate_series() const {
+  std::vector<EstimateSeries> out;
+  out.reserve(estimates_.size());
+  for (const auto& [key, est] : estimates_) {
+    EstimateSeries series{key.first, key.second, {}};
+    series.estimates.reserve(est.size());
+    for (const auto& e : est) {
+      double x, y, z;
+      // The same error as rows(): NaN where rows() skips the estimate.
+      double eh = std::numeric_limits<double>::quiet_NaN();
+      if (truth_at(key.second, e.utime, x, y, z)) eh = std::hypot(e.x - x, e.y - y);
+      if (!std::isfinite(eh)) eh = std::numeric_limits<double>::quiet_NaN();
+      series.estimates.push_back({e.utime, e.x, e.y, eh});
+    }
+    out.push_back(std::move(series));
+  }
+  return out;
+}
+
 size_t Evaluator::unmatched() const {
   size_t n = 0;
   for (const auto& [key, est] : estimates_)

@@ -5,6 +5,7 @@
 #include <Eigen/Core>
 #include <ips/pose_t.hpp>
 #include <map>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -25,6 +26,26 @@ struct ErrorRow {
   double cep95() const { return p95_h; }
   // Vertical error |dz|, over estimates with a finite height; NaN when none has one.
   double rmse_v = 0, mean_v = 0, median_v = 0, p95_v = 0, max_v = 0;
+};
+
+// A timestamped position (truth or estimate), m in the site frame.
+struct PositionSample {
+  utime_t utime;
+  double x, y, z;
+};
+
+// One estimate as the report draws it: where it was and how far off horizontally.
+struct EstimateError {
+  utime_t utime;
+  double x, y;     // the estimate's horizontal position, m
+  double error_h;  // horizontal error to truth, m; NaN where rows() does not score it
+};
+
+// Every estimate of one channel and tag, in the order they were added.
+struct EstimateSeries {
+  std::string channel;
+  std::string tag;
+  std::vector<EstimateError> estimates;
 };
 
 // Percentile p in [0, 100] of `values` with linear interpolation between order statistics
@@ -49,11 +70,18 @@ class Evaluator {
   // Truth samples with a non-finite position, which are not used.
   size_t bad_truth() const { return bad_truth_; }
 
+  // Per channel and tag, sorted like rows(): every estimate with its horizontal error; the
+  // finite errors of a series are exactly the ones rows() summarises.
+  std::vector<EstimateSeries> estimate_series() const;
+  // The usable truth samples per tag, sorted by utime.
+  const std::map<std::string, std::vector<PositionSample>>& truth_tracks() const { return truth_; }
+  // The known point in static-point mode.
+  std::optional<Eigen::Vector3d> static_point() const {
+    return static_mode_ ? std::optional<Eigen::Vector3d>(static_point_) : std::nullopt;
+  }
+
  private:
-  struct Sample {
-    utime_t utime;
-    double x, y, z;
-  };
+  using Sample = PositionSample;
   bool truth_at(const std::string& tag, utime_t t, double& x, double& y, double& z) const;
 
   utime_t max_gap_us_;

@@ -1,16 +1,23 @@
 // ips-eval: reads an LCM log and scores every pose channel against TRUTH, per channel and tag.
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <ips/pose_t.hpp>
+#include <ips/site_t.hpp>
 #include <lcm/lcm-cpp.hpp>
+#include <optional>
 #include <set>
 
 #include "core/channels.hpp"
 #include "core/cli.hpp"
 #include "core/log_read_report.hpp"
+#include "core/node.hpp"
 #include "core/text_escape.hpp"
 #include "loggers/eval/evaluation.hpp"
+#include "loggers/eval/report.hpp"
 
 namespace {
 
@@ -21,6 +28,21 @@ void print_json_number(double v) {
     std::printf("null");
 }
 
+// Writes `text` to DIR/name; on failure an error message naming the file and the reason.
+bool write_report_file(const std::filesystem::path& dir, const char* name, const std::string& text,
+                       std::string& error) {
+  const auto path = dir / name;
+  errno = 0;
+  std::ofstream out(path, std::ios::binary | std::ios::trunc);
+  if (out) out.write(text.data(), static_cast<std::streamsize>(text.size()));
+  if (out) out.close();
+  if (!out) {
+    error = "cannot write report file '" + ips::printable(path.string()) + "': " +
+            (errno ? std::strerror(errno) : "write failed");
+    return false;
+  }
+  return true;
+}
 
 }  // namespace
 
@@ -41,6 +63,11 @@ int main(int argc, char** argv) {
       ->type_name("X,Y[,Z]")
       ->delimiter(',')
       ->expected(2, 3);
+  std::string report_dir;
+  auto* report_opt = app.add_option("--report", report_dir,
+                 "also write DIR/index.html (map, error against time, error CDF, statistics; "
+                 "self-contained) and the figures as DIR/map.svg, error_time.svg, error_cdf.svg")
+      ->type_name("DIR");
   int rc = 0;
   if (!ips::parse_command_line(app, opts, argc, argv, rc)) return rc;
 
@@ -60,7 +87,23 @@ int main(int argc, char** argv) {
     ips::print_fatal("ips-eval", "cannot open log '" + log_path + "'");
     return 2;
   }
+  if (report_opt->count() > 0 && report_dir.empty()) {
+    ips::print_fatal("ips-eval", "--report: expected a directory, got an empty name");
+    return 2;
+  }
+  if (!report_dir.empty()) {
+    // Before reading a long log, so an unwritable DIR fails at once.
+    std::filesystem::create_directories(report_dir, ec);
+    if (ec || !std::filesystem::is_directory(report_dir, ec)) {
+      ips::print_fatal("ips-eval", "cannot create report directory '" +
+                                       ips::printable(report_dir) + "': " +
+                                       (ec ? ec.message() : std::string("not a directory")));
+      return 2;
+    }
+  }
   const std::string truth_channel = opts.channel(ips::channel::kTruth);
+  const std::string site_channel = opts.channel(ips::channel::kSite);
+  std::optional<ips::site_t> site;  // the last SITE message that decodes, for the report's map
   ips::eval::Evaluator ev;
   if (!static_point.empty()) {
     if (static_point.size() < 2 || !std::isfinite(static_point[0]) || !std::isfinite(static_point[1])) {
@@ -76,6 +119,11 @@ int main(int argc, char** argv) {
   while (const lcm::LogEvent* e = log.readNextEvent()) {
     read_up_to = std::ftell(log.getFilePtr());
     ++events;
+    if (!report_dir.empty() && e->channel == site_channel) {
+      ips::site_t s;
+      if (ips::decode_message(s, e->data, static_cast<size_t>(e->datalen))) site = std::move(s);
+      continue;
+    }
     ips::pose_t m;
     // Only pose_t decodes here: the fingerprint check rejects every other type.
     if (m.decode(e->data, 0, e->datalen) < 0) {
@@ -139,6 +187,33 @@ int main(int argc, char** argv) {
                 "estimates without truth around them)\n",
                 static_cast<long long>(events), static_cast<long long>(truth),
                 static_cast<long long>(poses), ev.unmatched());
+  }
+  if (!report_dir.empty()) {
+    ips::eval::ReportInput in;
+    in.log_path = log_path;
+    in.truth_channel = truth_channel;
+    in.rows = rows;
+    in.series = ev.estimate_series();
+    in.truth = &ev.truth_tracks();
+    in.static_point = ev.static_point();
+    if (site)
+      for (const auto& a : site->anchors)
+        in.anchors.push_back({a.id, a.position[0], a.position[1], a.enabled != 0});
+    in.events = events;
+    in.truth_samples = truth;
+    in.estimates = poses;
+    in.unmatched = ev.unmatched();
+    const auto report = ips::eval::build_report(in);
+    std::string error;
+    if (!write_report_file(report_dir, "map.svg", ips::eval::svg_document(report.map_svg), error) ||
+        !write_report_file(report_dir, "error_time.svg",
+                           ips::eval::svg_document(report.error_time_svg), error) ||
+        !write_report_file(report_dir, "error_cdf.svg",
+                           ips::eval::svg_document(report.error_cdf_svg), error) ||
+        !write_report_file(report_dir, "index.html", report.index_html, error)) {
+      ips::print_fatal("ips-eval", error);
+      return 2;
+    }
   }
   size_t non_finite = 0;
   for (const auto& r : rows) non_finite += r.non_finite;

@@ -1,0 +1,103 @@
+#pragma once
+// The page behind `ips-eval --report DIR`: three figures as SVG (the map with anchors, truth and
+// every estimator's track; horizontal error against time; the error CDF with CEP50/CEP95) and the
+// statistics table, as one self-contained HTML page (no script, no external asset). Pure: it
+// takes the Evaluator's numbers and returns strings; main.cpp writes the files.
+//
+// Every text that came from the log (channel names, tag and anchor ids) or the command line (the
+// log path) goes through xml_text(), so the output is well-formed XML/HTML whatever the bytes.
+// Long series are decimated to at most ReportOptions::max_points_per_series points, so a one-hour
+// 10-tag log gives a page of a few MB.
+#include <Eigen/Core>
+#include <cstddef>
+#include <cstdint>
+#include <map>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "loggers/eval/evaluation.hpp"
+
+namespace ips::eval {
+
+struct ReportAnchor {
+  std::string id;
+  double x = 0, y = 0;  // m, site frame
+  bool enabled = true;
+};
+
+struct ReportInput {
+  std::string log_path;
+  std::string truth_channel = "TRUTH";
+  std::vector<ErrorRow> rows;          // Evaluator::rows()
+  std::vector<EstimateSeries> series;  // Evaluator::estimate_series(), the same channels and tags
+  // Evaluator::truth_tracks(), not copied (an hour of 10 tags at 50 Hz is 1.8 M samples); must
+  // outlive build_report(). Null: no truth.
+  const std::map<std::string, std::vector<PositionSample>>* truth = nullptr;
+  std::vector<ReportAnchor> anchors;            // the log's last SITE message
+  std::optional<Eigen::Vector3d> static_point;  // static-point mode: drawn instead of truth
+  // For the header.
+  int64_t events = 0, truth_samples = 0, estimates = 0;
+  size_t unmatched = 0;
+};
+
+struct ReportOptions {
+  size_t max_points_per_series = 2000;  // per polyline, in every figure
+};
+
+struct Report {
+  // Each figure is one complete <svg> element; the standalone file is svg_document(figure).
+  std::string map_svg;
+  std::string error_time_svg;
+  std::string error_cdf_svg;
+  std::string index_html;  // holds the three <svg> elements inline, byte for byte
+};
+
+Report build_report(const ReportInput& in, const ReportOptions& options = {});
+
+// A standalone .svg file: the XML declaration, then the element.
+std::string svg_document(const std::string& svg_element);
+
+// ---- Building blocks (exposed for tests) ----
+
+// Untrusted text for XML/HTML character data and attribute values: bytes outside printable ASCII
+// as \xNN (like the text table), then & < > " ' as character references.
+std::string xml_text(std::string_view s);
+
+struct Point {
+  double x, y;
+};
+
+// A linear data-to-pixel map onto a plot rectangle (y up in data, down in pixels).
+struct PlotFrame {
+  double left = 0, top = 0, width = 1, height = 1;    // px
+  double x_min = 0, x_max = 1, y_min = 0, y_max = 1;  // data
+  Point to_px(double x, double y) const {
+    return {left + (x - x_min) / (x_max - x_min) * width,
+            top + (y_max - y) / (y_max - y_min) * height};
+  }
+};
+
+// The map's frame: the box around anchors, truth (or the static point) and the estimates (an
+// estimate far off extends it by at most max(5 m, half the site); the rest is clipped), padded
+// by 5 %, drawn with one scale on x and y.
+PlotFrame map_frame(const ReportInput& in);
+
+// Tick values at 1, 2 or 5 times a power of ten inside [lo, hi], about `target` of them.
+std::vector<double> nice_ticks(double lo, double hi, int target);
+
+// Largest-Triangle-Three-Buckets (Steinarsson 2013): at most max_points points of a polyline,
+// first and last kept, each bucket represented by the point that keeps the most area; for tracks.
+std::vector<Point> decimate_lttb(const std::vector<Point>& points, size_t max_points);
+
+// At most max_points points of a time series: per bucket of consecutive points, the smallest and
+// the largest y in their original order, so spikes (the worst errors) survive.
+std::vector<Point> decimate_min_max(const std::vector<Point>& points, size_t max_points);
+
+// The empirical CDF of the finite `errors` as a staircase in data units, from (e_min, 0) to
+// (e_max, 1): two points per step, one step per sample, or max_points / 2 steps at evenly spaced
+// ranks when there are more samples.
+std::vector<Point> cdf_steps(std::vector<double> errors, size_t max_points);
+
+}  // namespace ips::eval
