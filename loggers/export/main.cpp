@@ -7,7 +7,6 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
-#include <lcm/lcm-cpp.hpp>
 #include <map>
 #include <memory>
 #include <regex>
@@ -16,6 +15,7 @@
 
 #include "core/cli.hpp"
 #include "core/log_read_report.hpp"
+#include "core/log_reader.hpp"
 #include "core/text_escape.hpp"
 #include "loggers/export/log_export.hpp"
 
@@ -101,11 +101,13 @@ int main(int argc, char** argv) {
     return 2;
   }
   const uintmax_t file_size = fs::file_size(log_path, ec);
-  lcm::LogFile log(log_path, "r");
-  if (!log.good()) {
-    ips::print_fatal(kProgram, "cannot open log '" + log_path + "'");
+  File log_file(std::fopen(log_path.c_str(), "rb"));
+  if (!log_file) {
+    ips::print_fatal(kProgram, "cannot open log '" + log_path + "': " + std::strerror(errno));
     return 2;
   }
+  ips::FileLogSource log_source(log_file.get());
+  ips::LogReader log(log_source);
 
   // The output directory: created, and proven writable with a probe file (permissions alone do
   // not tell, e.g. for root or a read-only mount).
@@ -132,8 +134,6 @@ int main(int argc, char** argv) {
   std::map<std::string, int64_t> unknown;        // channel -> messages of no ips type
   std::set<std::string> stems;
   int64_t events = 0, exported = 0, filtered_channel = 0, filtered_time = 0;
-  int64_t garbage_bytes = 0, resyncs = 0;
-  long read_up_to = 0;
   int64_t first_ts = 0;
   const bool tty = isatty(STDERR_FILENO);
   auto next_progress = std::chrono::steady_clock::now();
@@ -148,44 +148,11 @@ int main(int argc, char** argv) {
     return f;
   };
 
-  // liblcm stops at the first damaged event header; look for the next event marker after the
-  // last good event and carry on from there (the bytes in between are counted as skipped).
-  auto resync = [&]() -> bool {
-    std::FILE* f = log.getFilePtr();
-    long start = read_up_to + 1;
-    if (std::fseek(f, start, SEEK_SET) != 0) return false;
-    uint32_t window = 0;
-    long pos = start;
-    for (int c; (c = std::getc(f)) != EOF; ++pos) {
-      window = (window << 8) | static_cast<uint32_t>(c);
-      if (pos - start >= 3 && window == 0xEDA1DA01u) {
-        const long event_start = pos - 3;
-        if (std::fseek(f, event_start, SEEK_SET) != 0) return false;
-        garbage_bytes += event_start - read_up_to;
-        ++resyncs;
-        read_up_to = event_start;
-        return true;
-      }
-    }
-    return false;
-  };
-
-  for (;;) {
-    const lcm::LogEvent* e = log.readNextEvent();
-    if (!e) {
-      if (static_cast<uintmax_t>(read_up_to) < file_size && events > 0 && resync()) continue;
-      break;
-    }
-    const long pos = std::ftell(log.getFilePtr());
-    // liblcm skips bytes up to the next event marker; whatever the event itself does not
-    // account for (28 header bytes, channel, data) was skipped garbage.
-    garbage_bytes += std::max<long>(
-        0, pos - read_up_to - 28 - static_cast<long>(e->channel.size()) - long{e->datalen});
-    read_up_to = pos;
-    if (events++ == 0) first_ts = e->timestamp;
+  while (const ips::LogEvent* e = log.next()) {
+    if (events++ == 0) first_ts = e->timestamp_us;
     if (tty && std::chrono::steady_clock::now() >= next_progress) {
       std::fprintf(stderr, "\r%s: %3.0f %%", kProgram,
-                   100.0 * static_cast<double>(read_up_to) /
+                   100.0 * static_cast<double>(log.stats().read_up_to) /
                        static_cast<double>(std::max<uintmax_t>(1, file_size)));
       next_progress += std::chrono::milliseconds(200);
     }
@@ -196,12 +163,12 @@ int main(int argc, char** argv) {
       ++filtered_channel;
       continue;
     }
-    const double t = static_cast<double>(e->timestamp - first_ts) * 1e-6;
+    const double t = static_cast<double>(e->timestamp_us - first_ts) * 1e-6;
     if ((!std::isnan(from_s) && t < from_s) || (!std::isnan(to_s) && t > to_s)) {
       ++filtered_time;
       continue;
     }
-    auto msg = ex::decode_any(e->data, static_cast<size_t>(std::max(0, e->datalen)));
+    auto msg = ex::decode_any(e->data, e->size);
     if (!msg) {
       ++unknown[e->channel];
       continue;
@@ -228,7 +195,7 @@ int main(int argc, char** argv) {
         std::fwrite(line.data(), 1, line.size(), out.csv.get());
       }
     if (out.jsonl) {
-      const std::string line = ex::json_line(e->channel, e->timestamp, *msg);
+      const std::string line = ex::json_line(e->channel, e->timestamp_us, *msg);
       std::fwrite(line.data(), 1, line.size(), out.jsonl.get());
     }
     ++out.messages;
@@ -257,14 +224,7 @@ int main(int argc, char** argv) {
 
   if (file_size == 0)
     std::fprintf(stderr, "%s: warning: %s is empty: nothing exported\n", kProgram, log_path.c_str());
-  ips::warn_if_log_cut(kProgram, log_path, events, read_up_to, file_size,
-                       "exported what was read");
-  if (garbage_bytes > 0)
-    std::fprintf(stderr,
-                 "%s: warning: %s: skipped %lld damaged bytes in %lld places and read on after "
-                 "them\n",
-                 kProgram, log_path.c_str(), static_cast<long long>(garbage_bytes),
-                 static_cast<long long>(std::max<int64_t>(1, resyncs)));
+  ips::report_log_damage(kProgram, log_path, log.stats(), "exported what was read");
   if (!unknown.empty()) {
     int64_t n = 0;
     for (const auto& [channel, count] : unknown) n += count;

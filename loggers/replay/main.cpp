@@ -3,15 +3,19 @@
 // byte-identical output.
 #include <unistd.h>
 
+#include <cerrno>
 #include <chrono>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <lcm/lcm-cpp.hpp>
+#include <memory>
 #include <sstream>
 #include <spdlog/spdlog.h>
 
 #include "core/cli.hpp"
 #include "core/log_read_report.hpp"
+#include "core/log_reader.hpp"
 #include "loggers/replay/replay_host.hpp"
 
 int main(int argc, char** argv) {
@@ -51,11 +55,16 @@ int main(int argc, char** argv) {
       return 2;
     }
     const auto in_size = std::filesystem::file_size(in_path, ec);
-    lcm::LogFile in(in_path, "r");
-    if (!in.good()) {
-      ips::print_fatal("ips-replay", "cannot open log '" + in_path + "'");
+    struct FileCloser {
+      void operator()(std::FILE* f) const { std::fclose(f); }
+    };
+    const std::unique_ptr<std::FILE, FileCloser> in_file(std::fopen(in_path.c_str(), "rb"));
+    if (!in_file) {
+      ips::print_fatal("ips-replay", "cannot open log '" + in_path + "': " + std::strerror(errno));
       return 2;
     }
+    ips::FileLogSource in_source(in_file.get());
+    ips::LogReader in(in_source);
     lcm::LogFile out(out_path, "w");
     if (!out.good()) {
       ips::print_fatal("ips-replay", "cannot write log '" + out_path + "'");
@@ -77,21 +86,19 @@ int main(int argc, char** argv) {
     const bool tty = isatty(STDERR_FILENO);
     const auto t0 = std::chrono::steady_clock::now();
     auto next_progress = t0;
-    long read_up_to = 0;
     int64_t first_ts = 0, last_ts = 0;
-    while (const lcm::LogEvent* e = in.readNextEvent()) {
-      read_up_to = std::ftell(in.getFilePtr());
-      if (host.stats().events_in == 0) first_ts = e->timestamp;
-      last_ts = e->timestamp;
-      host.process(e->channel, e->timestamp, static_cast<const uint8_t*>(e->data),
-                   static_cast<size_t>(e->datalen));
+    while (const ips::LogEvent* e = in.next()) {
+      if (host.stats().events_in == 0) first_ts = e->timestamp_us;
+      last_ts = e->timestamp_us;
+      host.process(e->channel, e->timestamp_us, e->data, e->size);
       if (write_failed) {
         ips::print_fatal("ips-replay", "write to '" + out_path + "' failed (disk full?)");
         return 1;
       }
       if (tty && std::chrono::steady_clock::now() >= next_progress) {
-        std::fprintf(stderr, "\rips-replay: %3.0f %%", 100.0 * static_cast<double>(read_up_to) /
-                                                        static_cast<double>(std::max<uintmax_t>(1, in_size)));
+        std::fprintf(stderr, "\rips-replay: %3.0f %%",
+                     100.0 * static_cast<double>(in.stats().read_up_to) /
+                         static_cast<double>(std::max<uintmax_t>(1, in_size)));
         next_progress += std::chrono::milliseconds(200);
       }
     }
@@ -102,8 +109,7 @@ int main(int argc, char** argv) {
     }
     const auto& s = host.stats();
     if (!ips::log_had_events("ips-replay", in_path, s.events_in, in_size)) return 2;
-    ips::warn_if_log_cut("ips-replay", in_path, s.events_in, read_up_to, in_size,
-                         "replayed what was read");
+    ips::report_log_damage("ips-replay", in_path, in.stats(), "replayed what was read");
     const double secs =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     const double span = 1e-6 * static_cast<double>(last_ts - first_ts);

@@ -33,6 +33,37 @@ else fail "cut log: non-zero exit"; fi
 "$BIN/ips-replay" "$WORK/garbage.lcm" --out "$WORK/e.lcm" 2>"$WORK/err"; st=$?
 [ "$st" -eq 0 ] && grep -q "stopped at byte\|events in" "$WORK/err" && echo "ok: garbage reported (status $st)" ||
   fail "garbage log: status $st: $(cat "$WORK/err")"
+# Garbage inserted in the middle of a whole log: replay reads on after it (every input event after
+# the garbage is in the output; only the one it landed in may be lost) and says how much it skipped.
+size=$(stat -c %s "$WORK/in.lcm")
+{ head -c $((size / 2)) "$WORK/in.lcm"; head -c 3000 /dev/urandom; tail -c +$((size / 2 + 1)) "$WORK/in.lcm"; } >"$WORK/mid.lcm"
+"$BIN/ips-replay" "$WORK/mid.lcm" --out "$WORK/h.lcm" 2>"$WORK/err"; st=$?
+# Events per channel, and the last timestamp, of an undamaged log (LCM log format, big-endian).
+log_summary() {
+  python3 - "$1" <<'PY'
+import struct, sys, collections
+data = open(sys.argv[1], 'rb').read()
+i, last, counts = 0, None, collections.Counter()
+while i + 28 <= len(data):
+    magic, _, ts, cl, dl = struct.unpack('>IqqII', data[i:i + 28])
+    if magic != 0xEDA1DA01 or i + 28 + cl + dl > len(data):
+        break
+    ch = data[i + 28:i + 28 + cl].decode()
+    if ch != 'POSE_UWB':
+        counts[ch] += 1
+    last = ts
+    i += 28 + cl + dl
+print(sum(counts.values()), last)
+PY
+}
+read -r n_in last_in < <(log_summary "$WORK/in.lcm")
+read -r n_out last_out < <(log_summary "$WORK/h.lcm")
+if [ "$st" -eq 0 ] && grep -Eq "skipped [0-9]+ damaged bytes in 1 places and read on" "$WORK/err" &&
+  [ "$last_out" = "$last_in" ] && [ "$n_out" -ge $((n_in - 1)) ]; then
+  echo "ok: garbage in the middle skipped, $n_out of $n_in input events replayed; $(grep skipped "$WORK/err")"
+else
+  fail "garbage in the middle: status $st, $n_out of $n_in input events, last time $last_out vs $last_in: $(cat "$WORK/err")"
+fi
 : >"$WORK/empty.lcm"
 "$BIN/ips-replay" "$WORK/empty.lcm" --out "$WORK/f.lcm" --log-level warn && echo "ok: empty log" || fail "empty log"
 echo "not a log" >"$WORK/text.lcm"
