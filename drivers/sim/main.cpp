@@ -11,6 +11,7 @@
 #include "core/cli.hpp"
 #include "core/lcm_url.hpp"
 #include "core/node.hpp"
+#include "core/progress.hpp"
 #include "drivers/sim/simulator.hpp"
 
 namespace {
@@ -23,10 +24,9 @@ int write_log(ips::sim::Simulator& sim, const ips::CommonOptions& opts, const st
     ips::print_fatal("ips-sim", "cannot write log '" + path + "'");
     return 1;
   }
-  const bool tty = isatty(STDERR_FILENO);
+  ips::ProgressLine progress("ips-sim");
   ips::sim::SimEvent ev;
   int64_t count = 0;
-  int last_pct = -1;
   const double span = static_cast<double>(sim.end_utime() - sim.start_utime());
   while (sim.next(ev)) {
     lcm::LogEvent le;
@@ -40,13 +40,9 @@ int write_log(ips::sim::Simulator& sim, const ips::CommonOptions& opts, const st
       return 1;
     }
     ++count;
-    int pct = static_cast<int>(100.0 * static_cast<double>(ev.utime - sim.start_utime()) / span);
-    if (tty && pct != last_pct) {
-      std::fprintf(stderr, "\rips-sim: %3d %%", pct);
-      last_pct = pct;
-    }
+    progress.update(static_cast<double>(ev.utime - sim.start_utime()) / span, count);
   }
-  if (tty) std::fprintf(stderr, "\r");
+  progress.finish();
   // The log's last buffer is written at close: check it here, not in LogFile's silent destructor.
   if (std::fflush(log.getFilePtr()) != 0 || std::ferror(log.getFilePtr())) {
     ips::print_fatal("ips-sim", "write to '" + path + "' failed (disk full?)");
