@@ -7,13 +7,12 @@
 #include <fstream>
 #include <ips/pose_t.hpp>
 #include <ips/site_t.hpp>
-#include <lcm/lcm-cpp.hpp>
 #include <optional>
 #include <set>
 
 #include "core/channels.hpp"
 #include "core/cli.hpp"
-#include "core/log_read_report.hpp"
+#include "core/log_input.hpp"
 #include "core/node.hpp"
 #include "core/text_escape.hpp"
 #include "loggers/eval/evaluation.hpp"
@@ -71,22 +70,9 @@ int main(int argc, char** argv) {
   int rc = 0;
   if (!ips::parse_command_line(app, opts, argc, argv, rc)) return rc;
 
+  const auto log = ips::LogInput::open("ips-eval", log_path);
+  if (!log) return 2;
   std::error_code ec;
-  const auto status = std::filesystem::status(log_path, ec);
-  if (!std::filesystem::exists(status)) {
-    ips::print_fatal("ips-eval", "cannot read log '" + log_path + "': no such file");
-    return 2;
-  }
-  if (!std::filesystem::is_regular_file(status)) {
-    ips::print_fatal("ips-eval", "cannot read log '" + log_path + "': not a regular file");
-    return 2;
-  }
-  const auto file_size = std::filesystem::file_size(log_path, ec);
-  lcm::LogFile log(log_path, "r");
-  if (!log.good()) {
-    ips::print_fatal("ips-eval", "cannot open log '" + log_path + "'");
-    return 2;
-  }
   if (report_opt->count() > 0 && report_dir.empty()) {
     ips::print_fatal("ips-eval", "--report: expected a directory, got an empty name");
     return 2;
@@ -114,22 +100,16 @@ int main(int argc, char** argv) {
                         static_point.size() > 2);
   }
   int64_t events = 0, poses = 0, truth = 0;
-  std::set<std::string> skipped_channels;
-  long read_up_to = 0;
-  while (const lcm::LogEvent* e = log.readNextEvent()) {
-    read_up_to = std::ftell(log.getFilePtr());
+  while (const ips::LogEvent* e = log->next()) {
     ++events;
     if (!report_dir.empty() && e->channel == site_channel) {
       ips::site_t s;
-      if (ips::decode_message(s, e->data, static_cast<size_t>(e->datalen))) site = std::move(s);
+      if (ips::decode_message(s, e->data, e->size)) site = std::move(s);
       continue;
     }
     ips::pose_t m;
     // Only pose_t decodes here: the fingerprint check rejects every other type.
-    if (m.decode(e->data, 0, e->datalen) < 0) {
-      skipped_channels.insert(e->channel);
-      continue;
-    }
+    if (!ips::decode_message(m, e->data, e->size)) continue;
     if (e->channel == truth_channel) {
       ev.add_truth(m);
       ++truth;
@@ -138,9 +118,7 @@ int main(int argc, char** argv) {
       ++poses;
     }
   }
-  if (!ips::log_had_events("ips-eval", log_path, events, file_size)) return 2;
-  ips::warn_if_log_cut("ips-eval", log_path, events, read_up_to, file_size,
-                       "scoring what was read");
+  if (!log->finish("scoring what was read")) return 2;
   const auto rows = ev.rows();
   if (json) {
     std::printf("{\"rows\": [");

@@ -1,9 +1,7 @@
 // ips-export: an LCM log to CSV and JSON lines, one file per channel (docs/programs.md#ips-export).
-#include <unistd.h>
 
 #include <algorithm>
 #include <cerrno>
-#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -14,8 +12,7 @@
 #include <cstring>
 
 #include "core/cli.hpp"
-#include "core/log_read_report.hpp"
-#include "core/log_reader.hpp"
+#include "core/log_input.hpp"
 #include "core/text_escape.hpp"
 #include "loggers/export/log_export.hpp"
 
@@ -90,24 +87,9 @@ int main(int argc, char** argv) {
   }
   const bool want_csv = format != "jsonl", want_jsonl = format != "csv";
 
+  const auto log = ips::LogInput::open(kProgram, log_path);
+  if (!log) return 2;
   std::error_code ec;
-  const auto status = fs::status(log_path, ec);
-  if (!fs::exists(status)) {
-    ips::print_fatal(kProgram, "cannot read log '" + log_path + "': no such file");
-    return 2;
-  }
-  if (!fs::is_regular_file(status)) {
-    ips::print_fatal(kProgram, "cannot read log '" + log_path + "': not a regular file");
-    return 2;
-  }
-  const uintmax_t file_size = fs::file_size(log_path, ec);
-  File log_file(std::fopen(log_path.c_str(), "rb"));
-  if (!log_file) {
-    ips::print_fatal(kProgram, "cannot open log '" + log_path + "': " + std::strerror(errno));
-    return 2;
-  }
-  ips::FileLogSource log_source(log_file.get());
-  ips::LogReader log(log_source);
 
   // The output directory: created, and proven writable with a probe file (permissions alone do
   // not tell, e.g. for root or a read-only mount).
@@ -135,8 +117,6 @@ int main(int argc, char** argv) {
   std::set<std::string> stems;
   int64_t events = 0, exported = 0, filtered_channel = 0, filtered_time = 0;
   int64_t first_ts = 0;
-  const bool tty = isatty(STDERR_FILENO);
-  auto next_progress = std::chrono::steady_clock::now();
 
   auto open_out = [&](const std::string& stem, const char* ext) -> File {
     const fs::path p = fs::path(out_dir) / (stem + ext);
@@ -148,15 +128,8 @@ int main(int argc, char** argv) {
     return f;
   };
 
-  while (const ips::LogEvent* e = log.next()) {
+  while (const ips::LogEvent* e = log->next()) {
     if (events++ == 0) first_ts = e->timestamp_us;
-    if (tty && std::chrono::steady_clock::now() >= next_progress) {
-      std::fprintf(stderr, "\r%s: %3.0f %%", kProgram,
-                   100.0 * static_cast<double>(log.stats().read_up_to) /
-                       static_cast<double>(std::max<uintmax_t>(1, file_size)));
-      next_progress += std::chrono::milliseconds(200);
-    }
-
     auto [sel, inserted] = channel_selected.try_emplace(e->channel, false);
     if (inserted) sel->second = std::regex_match(e->channel, channel_re);
     if (!sel->second) {
@@ -201,7 +174,6 @@ int main(int argc, char** argv) {
     ++out.messages;
     ++exported;
   }
-  if (tty) std::fprintf(stderr, "\r        \r");
 
   for (auto& [channel, out] : outs) {
     for (File* f : {&out.csv, &out.jsonl}) {
@@ -212,7 +184,7 @@ int main(int argc, char** argv) {
     }
   }
 
-  if (!ips::log_had_events(kProgram, log_path, events, file_size)) return 2;
+  if (!log->finish("exported what was read")) return 2;
   for (const auto& [channel, out] : outs)
     std::printf("%-20s %-12s %8lld messages -> %s.{%s}\n", ips::printable(channel).c_str(),
                 out.type.c_str(), static_cast<long long>(out.messages),
@@ -222,9 +194,8 @@ int main(int argc, char** argv) {
               static_cast<long long>(events), static_cast<long long>(exported), out_dir.c_str(),
               static_cast<long long>(filtered_channel), static_cast<long long>(filtered_time));
 
-  if (file_size == 0)
+  if (log->size() == 0)
     std::fprintf(stderr, "%s: warning: %s is empty: nothing exported\n", kProgram, log_path.c_str());
-  ips::report_log_damage(kProgram, log_path, log.stats(), "exported what was read");
   if (!unknown.empty()) {
     int64_t n = 0;
     for (const auto& [channel, count] : unknown) n += count;

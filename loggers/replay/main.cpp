@@ -14,7 +14,7 @@
 #include <spdlog/spdlog.h>
 
 #include "core/cli.hpp"
-#include "core/log_read_report.hpp"
+#include "core/log_input.hpp"
 #include "core/log_reader.hpp"
 #include "loggers/replay/replay_host.hpp"
 
@@ -49,22 +49,8 @@ int main(int argc, char** argv) {
     for (std::string n; std::getline(names, n, ',');)
       if (!n.empty()) ro.only.insert(n);
 
-    std::error_code ec;
-    if (!std::filesystem::is_regular_file(in_path, ec)) {
-      ips::print_fatal("ips-replay", "cannot read log '" + in_path + "': not a regular file");
-      return 2;
-    }
-    const auto in_size = std::filesystem::file_size(in_path, ec);
-    struct FileCloser {
-      void operator()(std::FILE* f) const { std::fclose(f); }
-    };
-    const std::unique_ptr<std::FILE, FileCloser> in_file(std::fopen(in_path.c_str(), "rb"));
-    if (!in_file) {
-      ips::print_fatal("ips-replay", "cannot open log '" + in_path + "': " + std::strerror(errno));
-      return 2;
-    }
-    ips::FileLogSource in_source(in_file.get());
-    ips::LogReader in(in_source);
+    const auto in = ips::LogInput::open("ips-replay", in_path);
+    if (!in) return 2;
     lcm::LogFile out(out_path, "w");
     if (!out.good()) {
       ips::print_fatal("ips-replay", "cannot write log '" + out_path + "'");
@@ -83,11 +69,9 @@ int main(int argc, char** argv) {
       if (out.writeEvent(&le) != 0) write_failed = true;
     });
 
-    const bool tty = isatty(STDERR_FILENO);
     const auto t0 = std::chrono::steady_clock::now();
-    auto next_progress = t0;
     int64_t first_ts = 0, last_ts = 0;
-    while (const ips::LogEvent* e = in.next()) {
+    while (const ips::LogEvent* e = in->next()) {
       if (host.stats().events_in == 0) first_ts = e->timestamp_us;
       last_ts = e->timestamp_us;
       host.process(e->channel, e->timestamp_us, e->data, e->size);
@@ -95,21 +79,13 @@ int main(int argc, char** argv) {
         ips::print_fatal("ips-replay", "write to '" + out_path + "' failed (disk full?)");
         return 1;
       }
-      if (tty && std::chrono::steady_clock::now() >= next_progress) {
-        std::fprintf(stderr, "\rips-replay: %3.0f %%",
-                     100.0 * static_cast<double>(in.stats().read_up_to) /
-                         static_cast<double>(std::max<uintmax_t>(1, in_size)));
-        next_progress += std::chrono::milliseconds(200);
-      }
     }
-    if (tty) std::fprintf(stderr, "\r");
+    if (!in->finish("replayed what was read")) return 2;
     if (std::fflush(out.getFilePtr()) != 0 || std::ferror(out.getFilePtr())) {
       ips::print_fatal("ips-replay", "write to '" + out_path + "' failed (disk full?)");
       return 1;
     }
     const auto& s = host.stats();
-    if (!ips::log_had_events("ips-replay", in_path, s.events_in, in_size)) return 2;
-    ips::report_log_damage("ips-replay", in_path, in.stats(), "replayed what was read");
     const double secs =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     const double span = 1e-6 * static_cast<double>(last_ts - first_ts);

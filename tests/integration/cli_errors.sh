@@ -65,6 +65,20 @@ expect 2 "^ips-eval: error: cannot read log '.*': not a regular file" "$BIN/ips-
 head -c 20000 "$WORK/full.lcm" >"$WORK/cut.lcm"
 expect 0 "^ips-eval: warning: .*cut.lcm: read [0-9]+ events, then stopped at byte [0-9]+ of 20000" \
   "$BIN/ips-eval" "$WORK/cut.lcm"
+# Garbage in the middle: skipped, reported, and everything after it scored.
+size=$(stat -c %s "$WORK/full.lcm")
+{ head -c $((size / 2)) "$WORK/full.lcm"; python3 "$(dirname "$0")/lcm_log.py" garbage 3000
+  tail -c +$((size / 2 + 1)) "$WORK/full.lcm"; } >"$WORK/mid.lcm"
+expect 0 "^ips-eval: warning: .*mid.lcm: skipped [0-9]+ damaged bytes in 1 places and read on after" \
+  "$BIN/ips-eval" "$WORK/mid.lcm"
+mid_truth=$(sed -nE 's/.* ([0-9]+) truth samples.*/\1/p' "$WORK/out")
+full_truth=$("$BIN/ips-eval" "$WORK/full.lcm" 2>/dev/null | sed -nE 's/.* ([0-9]+) truth samples.*/\1/p')
+if [ -n "$mid_truth" ] && [ "$mid_truth" -ge $((full_truth - 1)) ]; then
+  echo "ok: ips-eval read on after garbage: $mid_truth of $full_truth truth samples"
+else
+  echo "FAIL: ips-eval after garbage: '$mid_truth' of '$full_truth' truth samples"
+  failures=$((failures + 1))
+fi
 expect 2 "^ips-eval: error: --static-point: At least 2 required" "$BIN/ips-eval" "$WORK/full.lcm" --static-point 5
 expect 2 "^ips-sim: error: --out excludes --speed" \
   "$BIN/ips-sim" --scenario lab --out "$WORK/y.lcm" --speed 2

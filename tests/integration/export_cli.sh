@@ -5,6 +5,7 @@
 # of unknown type, an empty file, a text file, an output directory that cannot be created.
 set -uo pipefail
 BIN=$(cd "$1" && pwd)
+export PYTHONPATH=$(cd "$(dirname "$0")" && pwd)  # lcm_log.py
 WORK=$(mktemp -d)
 trap 'rm -rf "$WORK"' EXIT
 failures=0
@@ -14,25 +15,19 @@ fail() {
 }
 ok() { echo "ok: $*"; }
 
-# Independent reader of the LCM log format (magic, eventnum, timestamp, channel and data lengths,
-# big-endian): prints "CHANNEL COUNT" per channel. Optional 2nd/3rd args: a time window in s.
+# Counts events with the independent Python reader of the log format (lcm_log.py): prints
+# "CHANNEL COUNT" per channel. Optional 2nd/3rd args: a time window in s.
 count_events() {
   python3 - "$@" <<'PY'
-import struct, sys, collections
-data = open(sys.argv[1], 'rb').read()
+import collections, sys, lcm_log
+evs, _, _ = lcm_log.events(sys.argv[1])
 lo = float(sys.argv[2]) if len(sys.argv) > 2 else None
 hi = float(sys.argv[3]) if len(sys.argv) > 3 else None
-i, first, counts = 0, None, collections.Counter()
-while i + 28 <= len(data):
-    magic, _, ts, cl, dl = struct.unpack('>IqqII', data[i:i + 28])
-    if magic != 0xEDA1DA01 or i + 28 + cl + dl > len(data):
-        break
-    ch = data[i + 28:i + 28 + cl].decode()
-    first = ts if first is None else first
-    t = (ts - first) * 1e-6
+counts = collections.Counter()
+for ch, ts, _ in evs:
+    t = (ts - evs[0][1]) * 1e-6
     if (lo is None or t >= lo) and (hi is None or t <= hi):
         counts[ch] += 1
-    i += 28 + cl + dl
 for ch, n in sorted(counts.items()):
     print(ch, n)
 PY
@@ -129,7 +124,7 @@ if run 0 "$BIN/ips-export" "$WORK/cut.lcm" --out "$WORK/cut"; then
     [ "$(cat "$WORK"/cut/*.jsonl | wc -l)" -gt 0 ] && ok "cut log: $(cat "$WORK/err")" || fail "cut log: $(cat "$WORK/err")"
 fi
 size=$(stat -c %s "$WORK/lab.lcm")
-{ head -c $((size / 2)) "$WORK/lab.lcm"; head -c 3000 /dev/urandom; tail -c +$((size / 2 + 1)) "$WORK/lab.lcm"; } >"$WORK/garbage.lcm"
+{ head -c $((size / 2)) "$WORK/lab.lcm"; python3 "$(dirname "$0")/lcm_log.py" garbage 3000; tail -c +$((size / 2 + 1)) "$WORK/lab.lcm"; } >"$WORK/garbage.lcm"
 if run 0 "$BIN/ips-export" "$WORK/garbage.lcm" --out "$WORK/garbage"; then
   n=$(cat "$WORK"/garbage/*.jsonl | wc -l)
   total=$(count_events "$WORK/lab.lcm" | awk '{ s += $2 } END { print s }')

@@ -19,3 +19,17 @@ def events(path):
                     data[i + 28 + cl:i + 28 + cl + dl]))
         i += 28 + cl + dl
     return out, i, len(data)
+
+
+def garbage(n, seed=1):
+    """n bytes of seeded pseudo-random garbage (deterministic, unlike /dev/urandom)."""
+    import random
+    rng = random.Random(seed)
+    return bytes(rng.getrandbits(8) for _ in range(n))
+
+
+if __name__ == '__main__':
+    # python3 lcm_log.py garbage N: N bytes of garbage on stdout (for the shell tests).
+    import sys
+    if len(sys.argv) == 3 and sys.argv[1] == 'garbage':
+        sys.stdout.buffer.write(garbage(int(sys.argv[2])))

@@ -4,6 +4,7 @@
 # reported and never crash the program.
 set -uo pipefail
 BIN=$(cd "$1" && pwd)
+export PYTHONPATH=$(cd "$(dirname "$0")" && pwd)  # lcm_log.py
 WORK=$(mktemp -d)
 trap 'rm -rf "$WORK"' EXIT
 failures=0
@@ -29,31 +30,21 @@ head -c 100000 "$WORK/in.lcm" >"$WORK/cut.lcm"
 if "$BIN/ips-replay" "$WORK/cut.lcm" --out "$WORK/d.lcm" 2>"$WORK/err"; then
   grep -q "stopped at byte" "$WORK/err" && echo "ok: cut log reported" || fail "cut log not reported"
 else fail "cut log: non-zero exit"; fi
-{ head -c 50000 "$WORK/in.lcm"; head -c 3000 /dev/urandom; tail -c 50000 "$WORK/in.lcm"; } >"$WORK/garbage.lcm"
+{ head -c 50000 "$WORK/in.lcm"; python3 "$(dirname "$0")/lcm_log.py" garbage 3000; tail -c 50000 "$WORK/in.lcm"; } >"$WORK/garbage.lcm"
 "$BIN/ips-replay" "$WORK/garbage.lcm" --out "$WORK/e.lcm" 2>"$WORK/err"; st=$?
 [ "$st" -eq 0 ] && grep -q "stopped at byte\|events in" "$WORK/err" && echo "ok: garbage reported (status $st)" ||
   fail "garbage log: status $st: $(cat "$WORK/err")"
 # Garbage inserted in the middle of a whole log: replay reads on after it (every input event after
 # the garbage is in the output; only the one it landed in may be lost) and says how much it skipped.
 size=$(stat -c %s "$WORK/in.lcm")
-{ head -c $((size / 2)) "$WORK/in.lcm"; head -c 3000 /dev/urandom; tail -c +$((size / 2 + 1)) "$WORK/in.lcm"; } >"$WORK/mid.lcm"
+{ head -c $((size / 2)) "$WORK/in.lcm"; python3 "$(dirname "$0")/lcm_log.py" garbage 3000; tail -c +$((size / 2 + 1)) "$WORK/in.lcm"; } >"$WORK/mid.lcm"
 "$BIN/ips-replay" "$WORK/mid.lcm" --out "$WORK/h.lcm" 2>"$WORK/err"; st=$?
 # Events per channel, and the last timestamp, of an undamaged log (LCM log format, big-endian).
-log_summary() {
+log_summary() {  # events other than POSE_UWB, and the last timestamp
   python3 - "$1" <<'PY'
-import struct, sys, collections
-data = open(sys.argv[1], 'rb').read()
-i, last, counts = 0, None, collections.Counter()
-while i + 28 <= len(data):
-    magic, _, ts, cl, dl = struct.unpack('>IqqII', data[i:i + 28])
-    if magic != 0xEDA1DA01 or i + 28 + cl + dl > len(data):
-        break
-    ch = data[i + 28:i + 28 + cl].decode()
-    if ch != 'POSE_UWB':
-        counts[ch] += 1
-    last = ts
-    i += 28 + cl + dl
-print(sum(counts.values()), last)
+import sys, lcm_log
+evs, _, _ = lcm_log.events(sys.argv[1])
+print(sum(1 for ch, _, _ in evs if ch != 'POSE_UWB'), evs[-1][1] if evs else None)
 PY
 }
 read -r n_in last_in < <(log_summary "$WORK/in.lcm")
@@ -71,6 +62,23 @@ echo "not a log" >"$WORK/text.lcm"
 [ "$st" -eq 2 ] && grep -q "is not an LCM log" "$WORK/err" && echo "ok: not a log" || fail "text file: status $st"
 "$BIN/ips-replay" "$WORK/in.lcm" --out /nonexistent/dir/x.lcm 2>"$WORK/err"; st=$?
 [ "$st" -eq 2 ] && [ "$(wc -l <"$WORK/err")" -eq 1 ] && echo "ok: unwritable output" || fail "unwritable: status $st"
+
+# On a terminal (script(1) gives it a pseudo-terminal) a progress line that ends at 100 %; in a
+# pipe, none.
+if command -v script >/dev/null; then
+  tty_out=$(script -qfec "'$BIN/ips-replay' '$WORK/in.lcm' --out '$WORK/tty.lcm' --log-level warn" /dev/null |
+    tr '\r' '\n')
+  if echo "$tty_out" | grep -Eq '^ips-replay: \[#{20}\] 100 %  [0-9.]+ k? ?events' &&
+    cmp -s "$WORK/tty.lcm" "$WORK/a.lcm"; then
+    echo "ok: progress line on a terminal: $(echo "$tty_out" | grep '100 %' | tr -s ' ')"
+  else
+    fail "no progress line ending at 100 % on a terminal: $tty_out"
+  fi
+  "$BIN/ips-replay" "$WORK/in.lcm" --out "$WORK/pipe.lcm" --log-level warn 2>"$WORK/err" | cat
+  [ ! -s "$WORK/err" ] && echo "ok: no progress line in a pipe" || fail "stderr in a pipe: $(cat "$WORK/err")"
+else
+  echo "skip: no script(1) for a pseudo-terminal"
+fi
 
 echo "$failures failure(s)"
 [ "$failures" -eq 0 ]

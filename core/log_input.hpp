@@ -1,0 +1,44 @@
+#pragma once
+// An LCM log opened by one of the log tools (ips-eval, ips-replay, ips-export): the checks and
+// error lines at opening, the resynchronising reader (core/log_reader.hpp), the progress line on
+// a terminal (core/progress.hpp), and the same report of what was skipped at the end.
+#include <cstdio>
+#include <memory>
+#include <string>
+
+#include "core/log_reader.hpp"
+#include "core/progress.hpp"
+
+namespace ips {
+
+class LogInput {
+ public:
+  // nullptr, after one line "<program>: error: cannot read log '<path>': <why>", when the path
+  // does not exist, is not a regular file or cannot be opened.
+  static std::unique_ptr<LogInput> open(const std::string& program, const std::string& path);
+  ~LogInput();
+  LogInput(const LogInput&) = delete;
+  LogInput& operator=(const LogInput&) = delete;
+
+  // The next event in file order (valid until the next call), or nullptr at the end.
+  const LogEvent* next();
+  const LogReadStats& stats() const { return reader_->stats(); }
+  int64_t size() const { return size_; }
+
+  // After the last event: ends the progress line, then warns about a cut-short or damaged log
+  // ("...; <done>", e.g. "scoring what was read"). False, after the error line "'<path>' is not
+  // an LCM log (no readable event)", when the file held bytes but no event.
+  bool finish(const std::string& done);
+
+ private:
+  LogInput(std::string program, std::string path, std::FILE* file, int64_t size);
+
+  std::string program_, path_;
+  std::FILE* file_;
+  int64_t size_;
+  std::unique_ptr<FileLogSource> source_;
+  std::unique_ptr<LogReader> reader_;
+  ProgressLine progress_;
+};
+
+}  // namespace ips
