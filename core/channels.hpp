@@ -16,6 +16,8 @@ inline constexpr const char* kSite = "SITE";
 inline constexpr const char* kHealth = "HEALTH";
 inline constexpr const char* kTruth = "TRUTH";
 inline constexpr const char* kPoseUwb = "POSE_UWB";
+// The position a UWB module computes on board (DWM1001 PANS `lec` POS), published by its driver.
+inline constexpr const char* kPoseUwbModule = "POSE_UWB_MODULE";
 inline constexpr const char* kPoseTdoa = "POSE_TDOA";
 inline constexpr const char* kPoseAoa = "POSE_AOA";
 inline constexpr const char* kPosePdr = "POSE_PDR";
@@ -38,6 +40,7 @@ inline bool valid_channel_name(const std::string& name) {
 // Every kind, for checking --channel KIND=NAME.
 inline constexpr const char* kAllKinds[] = {
     kUwbRange, kUwbRx,    kBleAoa,   kImu,     kBaro,    kInsModule, kSite,  kHealth,    kTruth,
-    kPoseUwb,  kPoseTdoa, kPoseAoa,  kPosePdr, kPoseIns, kStep,      kAltitude, kClock, kPoseFused};
+    kPoseUwb,  kPoseTdoa, kPoseAoa,  kPosePdr, kPoseIns, kStep,      kAltitude, kClock, kPoseFused,
+    kPoseUwbModule};
 
 }  // namespace ips::channel

@@ -5,6 +5,7 @@
 #include <sys/signalfd.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cstring>
 #include <spdlog/spdlog.h>
@@ -121,8 +122,12 @@ bool Node::spin_once(int timeout_ms) {
     auto until = std::chrono::ceil<std::chrono::milliseconds>(t.next - now).count();
     if (until < timeout_ms) timeout_ms = static_cast<int>(std::max<int64_t>(0, until));
   }
-  pollfd fds[2] = {{lcm_fd_, POLLIN, 0}, {signal_fd_, POLLIN, 0}};
-  int n = poll(fds, 2, timeout_ms);
+  pollfds_.clear();
+  pollfds_.push_back({lcm_fd_, POLLIN, 0});
+  pollfds_.push_back({signal_fd_, POLLIN, 0});
+  for (const auto& w : watches_) pollfds_.push_back({w.fd, w.events, 0});
+  pollfd* fds = pollfds_.data();
+  int n = poll(fds, static_cast<nfds_t>(pollfds_.size()), timeout_ms);
   if (n < 0 && errno != EINTR) {
     report_error(std::string("poll: ") + std::strerror(errno));
   }
@@ -144,8 +149,42 @@ bool Node::spin_once(int timeout_ms) {
     failed_ = true;
     stopping_ = true;
   }
+  if (n > 0) {
+    // Copy what fired first: a handler may watch or unwatch fds (pollfds_ is rebuilt each turn).
+    std::vector<std::pair<int, short>> fired;
+    for (size_t i = 2; i < pollfds_.size(); ++i)
+      if (pollfds_[i].revents != 0) fired.emplace_back(pollfds_[i].fd, pollfds_[i].revents);
+    for (const auto& [fd, revents] : fired) {
+      auto it = std::find_if(watches_.begin(), watches_.end(),
+                             [fd = fd](const Watch& w) { return w.fd == fd; });
+      if (it == watches_.end()) continue;  // unwatched by an earlier handler
+      auto fn = it->fn;                     // the handler may unwatch itself
+      try {
+        fn(revents);
+      } catch (const std::exception& e) {
+        ++counters_.drops;
+        report_error(std::string("fd handler failed: ") + e.what());
+      }
+    }
+  }
   dispatch_timers();
   return !stopping_;
+}
+
+void Node::watch_fd(int fd, short events, std::function<void(short revents)> fn) {
+  for (auto& w : watches_)
+    if (w.fd == fd) {
+      w.events = events;
+      w.fn = std::move(fn);
+      return;
+    }
+  watches_.push_back({fd, events, std::move(fn)});
+}
+
+void Node::unwatch_fd(int fd) {
+  watches_.erase(std::remove_if(watches_.begin(), watches_.end(),
+                                [fd](const Watch& w) { return w.fd == fd; }),
+                 watches_.end());
 }
 
 int Node::run() {

@@ -7,6 +7,7 @@
 #include <functional>
 #include <ips/health_t.hpp>
 #include <lcm/lcm-cpp.hpp>
+#include <poll.h>
 #include <signal.h>
 
 #include <list>
@@ -80,6 +81,13 @@ class Node {
   // Calls `fn` every `period_s` seconds of monotonic time (first call one period from now).
   void add_timer(double period_s, std::function<void()> fn);
 
+  // Watches a device's file descriptor (serial port, CAN or UDP/TCP socket, stdin) in the same
+  // loop: `fn(revents)` runs when poll() reports `events` (or POLLERR/POLLHUP/POLLNVAL) on it.
+  // Watching an fd again replaces its handler. The node does not own or close the fd; unwatch it
+  // before closing it (a handler may unwatch its own fd).
+  void watch_fd(int fd, short events, std::function<void(short revents)> fn);
+  void unwatch_fd(int fd);
+
   // Runs the loop until SIGINT/SIGTERM or stop(). Returns the process exit status: 0, or 1 when
   // the LCM socket failed.
   int run();
@@ -109,6 +117,13 @@ class Node {
   std::unique_ptr<lcm::LCM> lcm_;
   std::list<RawHandler> handlers_;  // stable addresses: LCM keeps a pointer to each
   std::vector<Timer> timers_;
+  struct Watch {
+    int fd;
+    short events;
+    std::function<void(short)> fn;
+  };
+  std::vector<Watch> watches_;
+  std::vector<pollfd> pollfds_;
   NodeCounters counters_;
   int signal_fd_ = -1;
   int lcm_fd_ = -1;

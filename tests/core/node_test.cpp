@@ -11,6 +11,8 @@
 #include "core/lcm_url.hpp"
 #include "core/site_source.hpp"
 
+#include <unistd.h>
+
 #include <csignal>
 
 namespace ips {
@@ -111,6 +113,28 @@ TEST(Node, TimerFires) {
   node.add_timer(0.01, [&] { ++ticks; });
   for (int i = 0; i < 10 && ticks < 2; ++i) node.spin_once(50);
   EXPECT_GE(ticks, 2);
+}
+
+TEST(Node, WatchedFdsAreServedInTheLoopAndCanUnwatchThemselves) {
+  Node node("t", memq());
+  int p[2];
+  ASSERT_EQ(pipe(p), 0);
+  std::string got;
+  node.watch_fd(p[0], POLLIN, [&](short revents) {
+    char buf[16];
+    const ssize_t n = read(p[0], buf, sizeof buf);
+    if (n > 0) got.append(buf, static_cast<size_t>(n));
+    if ((revents & POLLHUP) || n == 0) node.unwatch_fd(p[0]);  // the writer went away
+  });
+  ASSERT_EQ(write(p[1], "abc", 3), 3);
+  node.spin_once(100);
+  EXPECT_EQ(got, "abc");
+  close(p[1]);
+  node.spin_once(100);  // hang-up: the handler unwatches
+  got.clear();
+  node.spin_once(20);  // not watched any more: no call, no spin
+  EXPECT_EQ(got, "");
+  close(p[0]);
 }
 
 TEST(Node, SigtermEndsRunWithStatusZero) {
