@@ -177,6 +177,19 @@ std::string no_data_note(const PlotFrame& f, const std::string& text) {
          text + "</text>\n";
 }
 
+// The end of both error figures: a note when there is nothing to plot, the legend, </svg>.
+std::string close_error_figure(const ReportInput& in, const PlotFrame& f,
+                               const std::vector<LegendEntry>& entries) {
+  std::string s;
+  if (in.series.empty())
+    s += no_data_note(f, "no pose estimates in this log");
+  else if (std::none_of(in.rows.begin(), in.rows.end(),
+                        [](const ErrorRow& r) { return r.count > 0; }))
+    s += no_data_note(f, "no estimate has truth around it: nothing scored");
+  s += legend(entries, f.left + f.width + kLegendGap, kMarginTop + 6);
+  return s + "</svg>";
+}
+
 // First and last utime over truth and estimates; {0, 0} when there is none.
 std::pair<utime_t, utime_t> time_span(const ReportInput& in) {
   utime_t lo = std::numeric_limits<utime_t>::max(), hi = std::numeric_limits<utime_t>::min();
@@ -321,13 +334,7 @@ std::string error_time_figure(const ReportInput& in, const ReportOptions& opt) {
     s += "<polyline class=\"error\" " + stroke_style(i) + " points=\"" + points_attr(lines[i], f) +
          "\"/>\n";
   s += "</g>\n";
-  if (in.series.empty())
-    s += no_data_note(f, "no pose estimates in this log");
-  else if (std::none_of(in.rows.begin(), in.rows.end(),
-                        [](const ErrorRow& r) { return r.count > 0; }))
-    s += no_data_note(f, "no estimate has truth around it: nothing scored");
-  s += legend(entries, f.left + f.width + kLegendGap, kMarginTop + 6);
-  return s + "</svg>";
+  return s + close_error_figure(in, f, entries);
 }
 
 std::string error_cdf_figure(const ReportInput& in, const ReportOptions& opt) {
@@ -381,13 +388,7 @@ std::string error_cdf_figure(const ReportInput& in, const ReportOptions& opt) {
     }
   }
   s += "</g>\n";
-  if (in.series.empty())
-    s += no_data_note(f, "no pose estimates in this log");
-  else if (std::none_of(in.rows.begin(), in.rows.end(),
-                        [](const ErrorRow& r) { return r.count > 0; }))
-    s += no_data_note(f, "no estimate has truth around it: nothing scored");
-  s += legend(entries, f.left + f.width + kLegendGap, kMarginTop + 6);
-  return s + "</svg>";
+  return s + close_error_figure(in, f, entries);
 }
 
 std::string utc_time(utime_t t) {

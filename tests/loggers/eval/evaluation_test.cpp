@@ -5,21 +5,13 @@
 
 #include <cmath>
 
+#include "tests/loggers/eval/pose_samples.hpp"
+
 namespace ips::eval {
 namespace {
 
-// Times in the tests are offsets from a plausible epoch (utimes <= 0 are invalid input).
-constexpr utime_t kT0 = 1767225600000000;
-
-pose_t pose(utime_t t, const std::string& tag, double x, double y, double z) {
-  pose_t p{};
-  p.utime = kT0 + t;
-  p.tag_id = tag;
-  p.position[0] = x;
-  p.position[1] = y;
-  p.position[2] = z;
-  return p;
-}
+using testing::kT0;
+using testing::pose;
 
 TEST(Percentile, LinearInterpolationLikeNumpy) {
   std::vector<double> v = {4, 1, 3, 2};

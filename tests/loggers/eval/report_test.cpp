@@ -17,20 +17,13 @@
 
 #include "loggers/eval/evaluation.hpp"
 
+#include "tests/loggers/eval/pose_samples.hpp"
+
 namespace ips::eval {
 namespace {
 
-constexpr utime_t kT0 = 1767225600000000;  // 2026-01-01 00:00:00 UTC
-
-pose_t pose(utime_t t, const std::string& tag, double x, double y, double z) {
-  pose_t p{};
-  p.utime = kT0 + t;
-  p.tag_id = tag;
-  p.position[0] = x;
-  p.position[1] = y;
-  p.position[2] = z;
-  return p;
-}
+using testing::kT0;
+using testing::pose;
 
 ReportInput input_from(const Evaluator& ev) {
   ReportInput in;
