@@ -1,0 +1,59 @@
+#pragma once
+// Fields of the text lines UWB devices print: plain decimal numbers ("2.55", "-0.04", "98": the
+// whole field, an optional minus sign, digits with an optional decimal point; no exponent, no
+// '+', no spaces, no nan/inf), and a field quoted safely for a parse error's reason. Pure.
+#include <charconv>
+#include <cmath>
+#include <cstdint>
+#include <string>
+#include <string_view>
+#include <system_error>
+
+namespace ips::uwb_serial {
+
+// True and `value` set when `field` is a finite plain decimal number.
+inline bool parse_decimal(std::string_view field, double& value) {
+  if (field.empty() || field.size() > 64) return false;
+  // from_chars would also take "inf" and "nan": only digits, one '.', a leading '-' are ours.
+  bool digit = false;
+  for (size_t i = 0; i < field.size(); ++i) {
+    const char c = field[i];
+    if (c >= '0' && c <= '9') {
+      digit = true;
+    } else if (!(c == '.' || (c == '-' && i == 0))) {
+      return false;
+    }
+  }
+  if (!digit) return false;
+  double v = 0;
+  const auto [end, ec] =
+      std::from_chars(field.data(), field.data() + field.size(), v, std::chars_format::fixed);
+  if (ec != std::errc() || end != field.data() + field.size() || !std::isfinite(v)) return false;
+  value = v;
+  return true;
+}
+
+// True and `value` set when `field` is a decimal integer (optional '-') that fits in int64.
+inline bool parse_integer(std::string_view field, int64_t& value) {
+  if (field.empty() || field.size() > 20 || field[0] == '+') return false;
+  int64_t v = 0;
+  const auto [end, ec] = std::from_chars(field.data(), field.data() + field.size(), v);
+  if (ec != std::errc() || end != field.data() + field.size()) return false;
+  value = v;
+  return true;
+}
+
+// 'field' for a reason text: at most 16 characters, anything but printable ASCII as '?', so
+// that a garbled line cannot put control bytes into health_t or a terminal.
+inline std::string quoted_field(std::string_view field) {
+  std::string out = "'";
+  for (size_t i = 0; i < field.size() && i < 16; ++i) {
+    const char c = field[i];
+    out += (c >= 0x20 && c < 0x7f) ? c : '?';
+  }
+  if (field.size() > 16) out += "...";
+  out += "'";
+  return out;
+}
+
+}  // namespace ips::uwb_serial
