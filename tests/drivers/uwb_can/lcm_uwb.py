@@ -1,0 +1,36 @@
+"""Independent decoders (not our C++ code) of the LCM encodings of ips.uwb_range_t and
+ips.health_t, for the ips-uwb-can integration tests: an 8-byte type fingerprint, then the fields
+in declaration order, big-endian; a string is an int32 length (with its NUL), the bytes, a NUL
+(LCM type specification, lcm-proj.github.io/lcm/content/lcm-type-ref.html)."""
+import struct
+
+
+class _Reader:
+    def __init__(self, data):
+        self.data, self.i = data, 8  # skip the fingerprint
+
+    def take(self, fmt):
+        v = struct.unpack_from('>' + fmt, self.data, self.i)[0]
+        self.i += struct.calcsize('>' + fmt)
+        return v
+
+    def string(self):
+        n = self.take('i')
+        s = self.data[self.i:self.i + n - 1].decode('utf-8', 'replace')
+        self.i += n
+        return s
+
+
+def uwb_range(data):
+    r = _Reader(data)
+    return dict(utime=r.take('q'), source=r.string(), tag_id=r.string(), anchor_id=r.string(),
+                range_m=r.take('d'), rx_power_dbm=r.take('f'), fp_power_dbm=r.take('f'),
+                quality=r.take('f'), seq=r.take('i'))
+
+
+def health(data):
+    r = _Reader(data)
+    return dict(utime=r.take('q'), source=r.string(), host=r.string(), pid=r.take('i'),
+                state=r.take('b'), msgs_in=r.take('q'), msgs_out=r.take('q'),
+                parse_errors=r.take('q'), drops=r.take('q'), last_error=r.string(),
+                uptime_us=r.take('q'))
