@@ -10,21 +10,10 @@ set -euo pipefail
 BIN=$(cd "$1" && pwd)
 HERE=$(cd "$(dirname "$0")" && pwd)
 ROOT=$(cd "$HERE/../.." && pwd)
-if [ "${IPS_IN_NETNS:-}" != "1" ]; then
-  IPS_IN_NETNS=1 exec "$ROOT/scripts/netns-run" "$0" "$@"
-fi
+source "$ROOT/tests/integration/live_test_lib.sh"
 
-WORK=$(mktemp -d)
-pids=()
-cleanup() {
-  for p in "${pids[@]}"; do kill -KILL "$p" 2>/dev/null || true; done
-  rm -rf "$WORK"
-}
-trap cleanup EXIT
-export LCM_DEFAULT_URL="udpm://239.255.76.67:7667?ttl=0"
 SPEED=4
 
-fail() { echo "FAIL: $*" >&2; exit 1; }
 
 # Reads "rmse_h"/"p95_h"/"count" of one channel's row from ips-eval --json.
 field() {  # json channel name (empty when there is no such row)
@@ -42,16 +31,6 @@ check_bound() {  # log channel
   awk -v r="$rmse" -v p="$p95" 'BEGIN { exit !(r <= 0.15 && p <= 0.30) }' ||
     fail "$2: rmse_h $rmse (bound 0.15), p95_h $p95 (bound 0.30)"
   echo "$2: count $count rmse_h $rmse p95_h $p95 (bounds 0.15, 0.30): ok"
-}
-stop() {  # pid name [signal]: SIGINT (or the signal given), expect a clean exit 0
-  kill -"${3:-INT}" "$1"
-  local rc=0
-  wait "$1" || rc=$?
-  # Reaped: forget it, so that cleanup never signals a pid the kernel has reused.
-  local kept=() p
-  for p in "${pids[@]}"; do [ "$p" = "$1" ] || kept+=("$p"); done
-  pids=("${kept[@]}")
-  [ "$rc" -eq 0 ] || fail "$2 exited with status $rc after SIGINT (expected 0)"
 }
 
 "$BIN/ips-bus-check" --timeout 3 || fail "multicast does not loop back inside the namespace"

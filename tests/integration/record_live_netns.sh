@@ -11,25 +11,8 @@ set -euo pipefail
 BIN=$(cd "$1" && pwd)
 HERE=$(cd "$(dirname "$0")" && pwd)
 ROOT=$(cd "$HERE/../.." && pwd)
-if [ "${IPS_IN_NETNS:-}" != "1" ]; then
-  IPS_IN_NETNS=1 exec "$ROOT/scripts/netns-run" "$0" "$@"
-fi
-WORK=$(mktemp -d)
-pids=()
-cleanup() {
-  for p in "${pids[@]}"; do kill -KILL "$p" 2>/dev/null || true; done
-  rm -rf "$WORK"
-}
-trap cleanup EXIT
-export LCM_DEFAULT_URL="udpm://239.255.76.67:7667?ttl=0"
-export PYTHONPATH="$HERE"
+source "$ROOT/tests/integration/live_test_lib.sh"
 START=1767225600000000
-fail() { echo "FAIL: $*" >&2; exit 1; }
-forget() {  # pid: reaped, so cleanup never signals a reused pid
-  local kept=() p
-  for p in "${pids[@]}"; do [ "$p" = "$1" ] || kept+=("$p"); done
-  pids=("${kept[@]}")
-}
 
 # --- 1: refusals: exit 2, one line saying why, nothing written ---------------------------------
 refuse() {  # expected-text args...
@@ -98,17 +81,25 @@ print(f'ok: {len(parts)} parts, {side["events"]} events, every published message
 PY
 
 # --- 3: the real LCM tools read the parts ----------------------------------------------------
+# lcm-logplayer publishes every event of a part (its -v line per event, checked in file order);
+# lcm-logger records them again. Over UDP under load a few may be lost, so the recording is
+# checked for order and content, and for at least 95 % of the events.
 lcm-logger -q -f "$WORK/played.lcm" & logger=$!; pids+=($logger)
 sleep 0.5
-lcm-logplayer -s 8 "$WORK/rec/s.001.lcm"
+lcm-logplayer -v -s 4 "$WORK/rec/s.001.lcm" >"$WORK/player.txt" 2>&1
 sleep 0.5
 kill -INT $logger; wait $logger || true; forget $logger
-python3 - "$WORK/rec/s.001.lcm" "$WORK/played.lcm" <<'PY' || fail "lcm-logplayer -> lcm-logger lost events"
-import sys, lcm_log
-a = [(c, d) for c, _, d in lcm_log.events(sys.argv[1])[0]]
-b = [(c, d) for c, _, d in lcm_log.events(sys.argv[2])[0] if c != 'LCM_SELF_TEST']
-assert a == b, f'{len(a)} events in the part, {len(b)} played back'
-print(f'ok: lcm-logplayer played all {len(a)} events of a part, lcm-logger recorded them')
+python3 - "$WORK/rec/s.001.lcm" "$WORK/player.txt" "$WORK/played.lcm" <<'PY' || fail "lcm-logplayer / lcm-logger on a part"
+import re, sys, lcm_log
+part = lcm_log.events(sys.argv[1])[0]
+played = [m.group(1) for m in re.finditer(r'Channel (\S+)\s+size (\d+)', open(sys.argv[2]).read())]
+assert played == [c for c, _, _ in part], f'lcm-logplayer published {len(played)} of {len(part)} events'
+got = [(c, d) for c, _, d in lcm_log.events(sys.argv[3])[0] if c != 'LCM_SELF_TEST']
+want = [(c, d) for c, _, d in part]
+it = iter(want)
+assert all(g in it for g in got), 'recorded events out of order or altered'
+assert len(got) >= 0.95 * len(want), f'{len(got)} of {len(want)} events came back'
+print(f'ok: lcm-logplayer published all {len(part)} events of a part; lcm-logger recorded {len(got)}')
 PY
 
 # --- 4: killed with SIGKILL --------------------------------------------------------------------

@@ -16,19 +16,8 @@ set -euo pipefail
 BIN=$(cd "$1" && pwd)
 HERE=$(cd "$(dirname "$0")" && pwd)
 ROOT=$(cd "$HERE/../../.." && pwd)
-if [ "${IPS_IN_NETNS:-}" != "1" ]; then
-  IPS_IN_NETNS=1 exec "$ROOT/scripts/netns-run" "$0" "$@"
-fi
-WORK=$(mktemp -d)
-pids=()
-cleanup() {
-  for p in "${pids[@]}"; do kill -KILL "$p" 2>/dev/null || true; done
-  rm -rf "$WORK"
-}
-trap cleanup EXIT
-export LCM_DEFAULT_URL="udpm://239.255.76.67:7667?ttl=0"
+source "$ROOT/tests/integration/live_test_lib.sh"
 export PYTHONPATH="$HERE:$ROOT/tests/integration"
-fail() { echo "FAIL: $*" >&2; exit 1; }
 
 "$BIN/ips-bus-check" --timeout 3 || fail "multicast does not loop back inside the namespace"
 

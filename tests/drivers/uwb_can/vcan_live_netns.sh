@@ -18,25 +18,14 @@ if ! command -v cansend >/dev/null 2>&1; then
   echo "SKIP: cansend is not installed (Debian package can-utils)"
   exit 77
 fi
-if [ "${IPS_IN_NETNS:-}" != "1" ]; then
-  IPS_IN_NETNS=1 exec "$ROOT/scripts/netns-run" "$0" "$@"
-fi
+source "$ROOT/tests/integration/live_test_lib.sh"
 if ! err=$(ip link add dev vcan0 type vcan 2>&1); then
   echo "SKIP: this kernel has no virtual CAN (ip link add dev vcan0 type vcan: $err)"
   exit 77
 fi
 ip link set vcan0 mtu 72  # CANFD_MTU: CAN FD frames too
 ip link set up vcan0
-WORK=$(mktemp -d)
-pids=()
-cleanup() {
-  for p in "${pids[@]}"; do kill -KILL "$p" 2>/dev/null || true; done
-  rm -rf "$WORK"
-}
-trap cleanup EXIT
-export LCM_DEFAULT_URL="udpm://239.255.76.67:7667?ttl=0"
 export PYTHONPATH="$HERE:$ROOT/tests/integration"
-fail() { echo "FAIL: $*" >&2; exit 1; }
 
 "$BIN/ips-bus-check" --timeout 3 || fail "multicast does not loop back inside the namespace"
 lcm-logger -q -f -c '^(UWB_RANGE|HEALTH)$' "$WORK/out.lcm" & logger=$!; pids+=($logger)

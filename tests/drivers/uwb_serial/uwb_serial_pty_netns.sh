@@ -15,32 +15,8 @@ set -euo pipefail
 BIN=$(cd "$1" && pwd)
 HERE=$(cd "$(dirname "$0")" && pwd)
 ROOT=$(cd "$HERE/../../.." && pwd)
-if [ "${IPS_IN_NETNS:-}" != "1" ]; then
-  IPS_IN_NETNS=1 exec "$ROOT/scripts/netns-run" "$0" "$@"
-fi
-WORK=$(mktemp -d)
-pids=()
-cleanup() {
-  for p in "${pids[@]}"; do kill -KILL "$p" 2>/dev/null || true; done
-  rm -rf "$WORK"
-}
-trap cleanup EXIT
-export LCM_DEFAULT_URL="udpm://239.255.76.67:7667?ttl=0"
-export PYTHONPATH="$ROOT/tests/integration"
+source "$ROOT/tests/integration/live_test_lib.sh"
 FAKE="$HERE/fake_uwb_device.py"
-fail() { echo "FAIL: $*" >&2; exit 1; }
-forget() {  # pid: reaped, so cleanup never signals a reused pid
-  local kept=() p
-  for p in "${pids[@]}"; do [ "$p" = "$1" ] || kept+=("$p"); done
-  pids=("${kept[@]}")
-}
-stop() {  # pid name: SIGINT, expect status 0
-  kill -INT "$1"
-  local rc=0
-  wait "$1" || rc=$?
-  forget "$1"
-  [ "$rc" -eq 0 ] || fail "$2 exited with status $rc after SIGINT (expected 0)"
-}
 wait_file() {  # path seconds
   local i
   for ((i = 0; i < $2 * 20; i++)); do [ -e "$1" ] && return 0; sleep 0.05; done

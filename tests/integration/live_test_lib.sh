@@ -1,0 +1,37 @@
+# Sourced by the live integration tests, which run real processes over real LCM multicast:
+#   source "$ROOT/tests/integration/live_test_lib.sh"
+# Re-runs the calling script (with its arguments) inside a private network namespace whose
+# loopback carries multicast (scripts/netns-run; exit 77, a skip, when none can be made here).
+# Then gives it:
+#   WORK            a scratch directory, removed at exit
+#   pids+=($!)      background processes, killed at exit
+#   forget PID      a reaped process, so that the cleanup never signals a reused pid
+#   stop PID NAME [SIGNAL]  SIGINT (or SIGNAL) and wait; fails unless it exits with status 0
+#   fail MESSAGE    "FAIL: MESSAGE" on stderr, exit 1
+# and exports LCM_DEFAULT_URL (the namespace's bus) and PYTHONPATH (tests/integration: lcm_log.py).
+IPS_TEST_LIB_DIR=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
+if [ "${IPS_IN_NETNS:-}" != "1" ]; then
+  IPS_IN_NETNS=1 exec "$IPS_TEST_LIB_DIR/../../scripts/netns-run" "$0" "$@"
+fi
+WORK=$(mktemp -d)
+pids=()
+cleanup() {
+  for p in "${pids[@]}"; do kill -KILL "$p" 2>/dev/null || true; done
+  rm -rf "$WORK"
+}
+trap cleanup EXIT
+export LCM_DEFAULT_URL="udpm://239.255.76.67:7667?ttl=0"
+export PYTHONPATH="$IPS_TEST_LIB_DIR${PYTHONPATH:+:$PYTHONPATH}"
+fail() { echo "FAIL: $*" >&2; exit 1; }
+forget() {
+  local kept=() p
+  for p in "${pids[@]}"; do [ "$p" = "$1" ] || kept+=("$p"); done
+  pids=("${kept[@]}")
+}
+stop() {
+  kill -"${3:-INT}" "$1"
+  local rc=0
+  wait "$1" || rc=$?
+  forget "$1"
+  [ "$rc" -eq 0 ] || fail "$2 exited with status $rc after SIG${3:-INT} (expected 0)"
+}
