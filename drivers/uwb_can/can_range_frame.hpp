@@ -1,5 +1,5 @@
 #pragma once
-// The UWB range frame on CAN (docs/hardware/uwb-can.md): one two-way-ranging result per frame,
+// The UWB range frame on CAN (docs/hardware/uwb.md): one two-way-ranging result per frame,
 // sent by the anchor that measured it, on its own standard (11-bit) identifier
 //   CAN id = base id + anchor number
 // with 8 payload bytes, little endian:

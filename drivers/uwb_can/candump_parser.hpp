@@ -2,7 +2,7 @@
 // can-utils' candump text, one line at a time, into CAN frames, and CAN frames into the
 // `candump -L` log format. Pure: no I/O, no exceptions; every line it cannot read gets a reason.
 //
-// Lines read (docs/hardware/uwb-can.md has examples):
+// Lines read (docs/hardware/uwb.md has examples):
 //  - the log format of `candump -L` and `candump -l` files:
 //      (1436509052.249713) can0 123#DEADBEEF
 //    with the compact frame syntax of can-utils (lib.h, parse_canframe): a 3-hex-digit standard

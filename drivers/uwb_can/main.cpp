@@ -1,6 +1,6 @@
 // ips-uwb-can: UWB two-way ranges from a CAN bus (SocketCAN), a candump log or a candump stream,
 // published as uwb_range_t on UWB_RANGE; and --to-candump, which writes the UWB_RANGE messages of
-// an LCM log as `candump -L` lines. Frame layout and workflows: docs/hardware/uwb-can.md.
+// an LCM log as `candump -L` lines. Frame layout and workflows: docs/hardware/uwb.md.
 #include <spdlog/spdlog.h>
 #include <unistd.h>
 
@@ -18,6 +18,7 @@
 #include "core/cli.hpp"
 #include "core/line_buffer.hpp"
 #include "core/log_input.hpp"
+#include "core/log_to_lines.hpp"
 #include "core/node.hpp"
 #include "core/text_escape.hpp"
 #include "drivers/uwb_can/can_range_receiver.hpp"
@@ -214,62 +215,26 @@ int read_socketcan(ips::Node& node, const Settings& s, std::unique_ptr<SocketCan
 // --to-candump: the UWB_RANGE messages of an LCM log as `candump -L` lines on stdout.
 int to_candump(const ips::CommonOptions& opts, const Settings& s, const std::string& path,
                const std::string& interface) {
-  std::signal(SIGPIPE, SIG_IGN);  // `| head`: a write error, reported, not a silent death
-  auto in = ips::LogInput::open(kProgram, path);
-  if (!in) return 1;
-  const std::string channel = opts.channel(ips::channel::kUwbRange);
-  int64_t messages = 0, written = 0, skipped = 0;
-  std::string first_skip;
-  auto skip = [&](const std::string& why) {
-    ++skipped;
-    if (first_skip.empty()) first_skip = why;
-    spdlog::debug("{}: {}: skipped a {} message: {}", kProgram, path, channel, ips::printable(why));
-  };
-  while (const ips::LogEvent* e = in->next()) {
-    if (e->channel != channel) continue;
-    ++messages;
-    ips::uwb_range_t m;
-    if (!ips::decode_message(m, e->data, e->size)) {
-      skip("does not decode as uwb_range_t");
-      continue;
-    }
-    if (!ips::plausible_utime(m.utime)) {
-      skip("utime " + std::to_string(m.utime) + " is not a plausible time");
-      continue;
-    }
-    const RangeRecordResult rec = range_record(m, s.ids);
-    if (!rec.ok) {
-      skip(rec.reason);
-      continue;
-    }
-    const RangeFrameEncode enc = encode_range_frame(rec.record, s.layout, s.fd);
-    if (!enc.ok) {
-      skip(enc.reason);
-      continue;
-    }
-    std::string line = format_candump_line(enc.frame, m.utime, interface);
-    line += '\n';
-    if (std::fwrite(line.data(), 1, line.size(), stdout) != line.size()) break;
-    ++written;
-  }
-  if (!in->finish("converted what was read")) return 1;
-  if (std::fflush(stdout) != 0 || std::ferror(stdout)) {
-    ips::print_fatal(kProgram,
-                     std::string("cannot write the candump lines: ") + std::strerror(errno));
-    return 1;
-  }
-  if (messages > 0 && written == 0) {
-    ips::print_fatal(kProgram, "no " + channel + " message of '" + path +
-                                   "' could be written as a frame: " + ips::printable(first_skip));
-    return 1;
-  }
-  if (skipped > 0)
-    spdlog::warn("{}: {}: {} of {} {} messages skipped (first: {})", kProgram, path, skipped,
-                 messages, channel, ips::printable(first_skip));
-  if (messages == 0) spdlog::warn("{}: {}: no {} message in the log", kProgram, path, channel);
-  spdlog::info("{}: wrote {} candump lines from {} {} messages of {}", kProgram, written, messages,
-               channel, path);
-  return 0;
+  return ips::write_log_as_lines<ips::uwb_range_t>(
+      kProgram, path, opts.channel(ips::channel::kUwbRange), "candump line",
+      [&](const ips::uwb_range_t& m, std::string& line, std::string& why) {
+        if (!ips::plausible_utime(m.utime)) {
+          why = "utime " + std::to_string(m.utime) + " is not a plausible time";
+          return false;
+        }
+        const RangeRecordResult rec = range_record(m, s.ids);
+        if (!rec.ok) {
+          why = rec.reason;
+          return false;
+        }
+        const RangeFrameEncode enc = encode_range_frame(rec.record, s.layout, s.fd);
+        if (!enc.ok) {
+          why = enc.reason;
+          return false;
+        }
+        line = format_candump_line(enc.frame, m.utime, interface);
+        return true;
+      });
 }
 
 // "0x300", "768": an id as C writes it.
@@ -289,7 +254,7 @@ int main(int argc, char** argv) {
   CLI::App app{
       "ips-uwb-can: UWB two-way ranges from CAN (SocketCAN, candump logs or a candump "
       "stream) published as uwb_range_t on UWB_RANGE; --to-candump writes an LCM log's "
-      "UWB_RANGE messages as candump -L lines. Frame layout: docs/hardware/uwb-can.md.",
+      "UWB_RANGE messages as candump -L lines. Frame layout: docs/hardware/uwb.md.",
       kProgram};
   ips::CommonOptions opts;
   ips::add_common_options(app, opts, {.lcm = true, .site = false, .channels = true});

@@ -1,6 +1,6 @@
 #pragma once
 // Parser for our RANGE line protocol, for tags and listeners running custom firmware
-// (docs/hardware/uwb-serial.md#the-range-line-protocol):
+// (docs/hardware/uwb.md#the-range-line-protocol):
 //
 //   RANGE <tag> <anchor> <range_m> [<rssi_dbm>]
 //

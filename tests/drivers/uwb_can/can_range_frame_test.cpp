@@ -1,4 +1,4 @@
-// The UWB range frame layout (drivers/uwb_can/can_range_frame.hpp, docs/hardware/uwb-can.md):
+// The UWB range frame layout (drivers/uwb_can/can_range_frame.hpp, docs/hardware/uwb.md):
 // the worked example of the documentation byte for byte, round trips at the edges of every
 // field, and the frames the decoder refuses or leaves to other devices.
 #include "drivers/uwb_can/can_range_frame.hpp"
@@ -20,7 +20,7 @@ CanFrame classic(uint32_t id, std::vector<uint8_t> bytes) {
 }
 
 TEST(CanRangeFrame, DecodesTheWorkedExampleOfTheDocumentation) {
-  // docs/hardware/uwb-can.md: anchor 3 (id 0x303), tag 1, 10.206 m, 87 %, seq 200.
+  // docs/hardware/uwb.md: anchor 3 (id 0x303), tag 1, 10.206 m, 87 %, seq 200.
   const auto d =
       decode_range_frame(classic(0x303, {0x01, 0x00, 0xDE, 0x27, 0x00, 0x00, 0x57, 0xC8}), {});
   ASSERT_EQ(d.what, FrameClass::kRange) << d.reason;

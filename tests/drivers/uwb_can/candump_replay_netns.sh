@@ -65,11 +65,11 @@ sleep 0.5
 kill -INT $logger; wait $logger || true; pids=()
 
 python3 - "$WORK/sim.lcm" "$WORK/out.lcm" "$t0" "$t1" "$n" <<'PY' || fail "published ranges differ"
-import math, sys, lcm_log, lcm_uwb
+import math, sys, lcm_log, lcm_messages
 sim_path, out_path, t0, t1, n_lines = sys.argv[1], sys.argv[2], int(sys.argv[3]), int(sys.argv[4]), int(sys.argv[5])
-sim = [lcm_uwb.uwb_range(d) for ch, _, d in lcm_log.events(sim_path)[0] if ch == 'UWB_RANGE']
+sim = [lcm_messages.uwb_range(d) for ch, _, d in lcm_log.events(sim_path)[0] if ch == 'UWB_RANGE']
 out, _, _ = lcm_log.events(out_path)
-got = {ch: [lcm_uwb.uwb_range(d) for c, _, d in out if c == ch]
+got = {ch: [lcm_messages.uwb_range(d) for c, _, d in out if c == ch]
        for ch in ('UWB_RANGE_FILE', 'UWB_RANGE_STDIN', 'UWB_RANGE_BAD')}
 assert len(sim) == n_lines, (len(sim), n_lines)
 
@@ -94,7 +94,7 @@ compare('UWB_RANGE_STDIN', got['UWB_RANGE_STDIN'], False)
 compare('UWB_RANGE_BAD', got['UWB_RANGE_BAD'], True)
 
 # The last HEALTH of each run (its final one, published at the end of input).
-health = [lcm_uwb.health(d) for c, _, d in out if c == 'HEALTH']
+health = [lcm_messages.health(d) for c, _, d in out if c == 'HEALTH']
 runs = {}
 for h in health:
     if h['source'] == 'ips-uwb-can':

@@ -49,10 +49,10 @@ sleep 0.3
 kill -INT $logger; wait $logger || true; pids=()
 
 python3 - "$WORK/out.lcm" "$t0" "$t1" <<'PY' || fail "published ranges"
-import math, sys, lcm_log, lcm_uwb
+import math, sys, lcm_log, lcm_messages
 evs, _, _ = lcm_log.events(sys.argv[1])
 t0, t1 = int(sys.argv[2]), int(sys.argv[3])
-r = [lcm_uwb.uwb_range(d) for c, _, d in evs if c == 'UWB_RANGE']
+r = [lcm_messages.uwb_range(d) for c, _, d in evs if c == 'UWB_RANGE']
 want = [('T1', 'A1', 1.000, 1.0, 7), ('T42', 'A2', 12.345, 0.5, 5), ('T65535', 'hall-east', 0.5, None, 255)]
 assert len(r) == 3, r
 for m, (tag, anchor, rng, q, seq) in zip(r, want):
@@ -61,7 +61,7 @@ for m, (tag, anchor, rng, q, seq) in zip(r, want):
     assert (math.isnan(m['quality']) if q is None else abs(m['quality'] - q) < 1e-6), m
     assert m['source'] == 'ips-uwb-can:vcan0', m
     assert t0 - 1000000 <= m['utime'] <= t1 + 1000000, m  # kernel receive time, host clock
-h = [lcm_uwb.health(d) for c, _, d in evs if c == 'HEALTH']
+h = [lcm_messages.health(d) for c, _, d in evs if c == 'HEALTH']
 h = [x for x in h if x['source'] == 'ips-uwb-can'][-1]
 assert h['msgs_in'] == 6 and h['msgs_out'] >= 3 and h['parse_errors'] == 1, h
 print(f'ok: 3 ranges from vcan0 (classic and CAN FD), others ignored, HEALTH {h}')

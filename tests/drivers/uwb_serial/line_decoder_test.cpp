@@ -1,5 +1,5 @@
 // LineDecoder: lines to uwb_range_t/pose_t with the fields documented in
-// docs/hardware/uwb-serial.md (source, ids, NaN for what the device does not give, sequence
+// docs/hardware/uwb.md (source, ids, NaN for what the device does not give, sequence
 // per tag/anchor), format selection, and whole-line rejection.
 #include "drivers/uwb_serial/line_decoder.hpp"
 

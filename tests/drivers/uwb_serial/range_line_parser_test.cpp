@@ -1,4 +1,4 @@
-// RANGE line protocol (docs/hardware/uwb-serial.md): the spec's examples and bad input.
+// RANGE line protocol (docs/hardware/uwb.md): the spec's examples and bad input.
 #include "drivers/uwb_serial/range_line_parser.hpp"
 
 #include <gtest/gtest.h>

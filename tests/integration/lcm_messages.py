@@ -1,7 +1,7 @@
-"""Independent decoders (not our C++ code) of the LCM encodings of ips.uwb_range_t and
-ips.health_t, for the ips-uwb-can integration tests: an 8-byte type fingerprint, then the fields
-in declaration order, big-endian; a string is an int32 length (with its NUL), the bytes, a NUL
-(LCM type specification, lcm-proj.github.io/lcm/content/lcm-type-ref.html)."""
+"""Independent decoders (not our C++ code) of the LCM encodings of ips messages, for the
+integration tests: an 8-byte type fingerprint, then the fields in declaration order, big-endian; a
+string is an int32 length (with its NUL), the bytes, a NUL; a boolean one byte (LCM type
+specification, lcm-proj.github.io/lcm/content/lcm-type-ref.html)."""
 import struct
 
 
@@ -26,6 +26,14 @@ def uwb_range(data):
     return dict(utime=r.take('q'), source=r.string(), tag_id=r.string(), anchor_id=r.string(),
                 range_m=r.take('d'), rx_power_dbm=r.take('f'), fp_power_dbm=r.take('f'),
                 quality=r.take('f'), seq=r.take('i'))
+
+
+def uwb_rx(data):
+    r = _Reader(data)
+    return dict(utime=r.take('q'), source=r.string(), anchor_id=r.string(), sender_id=r.string(),
+                is_sync=bool(r.take('b')), seq=r.take('i'), rx_counter=r.take('q'),
+                counter_hz=r.take('d'), rx_power_dbm=r.take('f'), fp_power_dbm=r.take('f'),
+                quality=r.take('f'))
 
 
 def health(data):
