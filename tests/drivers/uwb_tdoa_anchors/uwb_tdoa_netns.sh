@@ -96,10 +96,10 @@ t3=$(now_us)
   echo '|0006|A|1007|bb|000|084|60|75|7d|3f|e2|67.80|'                       # 8 values missing
   sed -n '41,$p' "$WORK/recs.txt"
 } > "$WORK/bad.txt"
-"$DRV" --file "$WORK/bad.txt" --rate 2000 "${IDS[@]}" --channel UWB_RX=UWB_RX_FILE \
+"$DRV" --file "$WORK/bad.txt" --rate 500 "${IDS[@]}" --channel UWB_RX=UWB_RX_FILE \
   --log-level error || fail "--file exited with $?"
 t4=$(now_us)
-cat "$WORK/recs.txt" | "$DRV" --file - "${IDS[@]}" --channel UWB_RX=UWB_RX_STDIN --rate 2000 \
+cat "$WORK/recs.txt" | "$DRV" --file - "${IDS[@]}" --channel UWB_RX=UWB_RX_STDIN --rate 500 \
   --log-level error || fail "--file - exited with $?"
 t5=$(now_us)
 # 004's three examples with --rx-power: the DW1000 reading of their diagnostics.
