@@ -125,8 +125,9 @@ TEST(SessionWriter, SplitsBySizeWithSiteFirstInEveryPartAndNothingLostOrReordere
     auto part = read_log(p);
     ASSERT_FALSE(part.empty());
     ASSERT_TRUE(is_site(part.front())) << p << " does not start with SITE";
-    if (i > 0 && part.size() > 1)
+    if (i > 0 && part.size() > 1) {
       EXPECT_EQ(part[0].utime, part[1].utime) << "the head carries the part's first receive time";
+    }
     // The lab scenario's SITE is its first event: the first part needs no extra head.
     body.insert(body.end(), part.begin() + (i == 0 ? 0 : 1), part.end());
   }
