@@ -5,7 +5,6 @@
 #include <filesystem>
 
 #include "core/cli.hpp"
-#include "core/log_read_report.hpp"
 
 namespace ips {
 
@@ -57,10 +56,29 @@ const LogEvent* LogInput::next() {
 
 bool LogInput::finish(const std::string& done) {
   progress_.finish();
-  const auto& s = reader_->stats();
-  if (!log_had_events(program_, path_, s.events, static_cast<uintmax_t>(std::max<int64_t>(0, size_))))
+  const LogReadStats& s = reader_->stats();
+  if (size_ > 0 && s.events == 0) {
+    print_fatal(program_, "'" + path_ + "' is not an LCM log (no readable event)");
     return false;
-  report_log_damage(program_, path_, s, done);
+  }
+  // The warnings every log tool words the same way, each only when it applies.
+  const auto ll = [](int64_t v) { return static_cast<long long>(v); };
+  const char* prog = program_.c_str();
+  const char* path = path_.c_str();
+  if (s.truncated_tail_bytes > 0)
+    std::fprintf(stderr,
+                 "%s: warning: %s: read %lld events, then stopped at byte %lld of %lld (the log is "
+                 "cut short there: its last %lld bytes are an incomplete event); %s\n",
+                 prog, path, ll(s.events), ll(s.read_up_to - s.truncated_tail_bytes),
+                 ll(s.read_up_to), ll(s.truncated_tail_bytes), done.c_str());
+  if (s.garbage_bytes > 0)
+    std::fprintf(stderr,
+                 "%s: warning: %s: skipped %lld damaged bytes in %lld places and read on after "
+                 "them\n",
+                 prog, path, ll(s.garbage_bytes), ll(s.resyncs));
+  if (s.read_error)
+    std::fprintf(stderr, "%s: warning: %s: read error after byte %lld; %s\n", prog, path,
+                 ll(s.read_up_to), done.c_str());
   return true;
 }
 

@@ -25,9 +25,13 @@ class LogInput {
   const LogReadStats& stats() const { return reader_->stats(); }
   int64_t size() const { return size_; }
 
-  // After the last event: ends the progress line, then warns about a cut-short or damaged log
-  // ("...; <done>", e.g. "scoring what was read"). False, after the error line "'<path>' is not
-  // an LCM log (no readable event)", when the file held bytes but no event.
+  // After the last event: ends the progress line, then warns on stderr, each only when it applies:
+  //   "<program>: warning: <path>: read N events, then stopped at byte B of S (the log is cut
+  //    short there: its last T bytes are an incomplete event); <done>"
+  //   "<program>: warning: <path>: skipped G damaged bytes in R places and read on after them"
+  //   "<program>: warning: <path>: read error after byte B; <done>"
+  // (<done> e.g. "scoring what was read"). False, after the error line "'<path>' is not an LCM
+  // log (no readable event)", when the file held bytes but no event.
   bool finish(const std::string& done);
 
  private:
