@@ -24,17 +24,15 @@ double residuals(std::span<const RangeObservation> obs, const Eigen::Vector3d& p
   }
   return ss;
 }
-}  // namespace
 
-MultilaterationResult multilaterate_lm(std::span<const RangeObservation> obs,
-                                       const MultilaterationOptions& opts,
-                                       Eigen::Vector3d initial) {
-  MultilaterationResult out;
+// Checks the count and picks the start point; false (with out.failure) when too few ranges.
+bool prepare(std::span<const RangeObservation> obs, const MultilaterationOptions& opts,
+             Eigen::Vector3d& initial, MultilaterationResult& out) {
   const int dims = opts.fixed_height ? 2 : 3;
   if (static_cast<int>(obs.size()) < dims + 1) {
     out.failure = "need at least " + std::to_string(dims + 1) + " ranges, got " +
                   std::to_string(obs.size());
-    return out;
+    return false;
   }
   if (!initial.allFinite()) {
     initial = Eigen::Vector3d::Zero();
@@ -45,6 +43,142 @@ MultilaterationResult multilaterate_lm(std::span<const RangeObservation> obs,
     initial.z() -= 1.0;
   }
   if (opts.fixed_height) initial.z() = opts.height_m;
+  return true;
+}
+
+// The unit covariance (J'J)^-1 at the solution and the residual RMS.
+MultilaterationResult finish(std::span<const RangeObservation> obs, const Eigen::Vector3d& p,
+                             int dims, int iterations) {
+  MultilaterationResult out;
+  out.iterations = iterations;
+  Eigen::MatrixXd J;
+  Eigen::VectorXd r;
+  const double cost = residuals(obs, p, dims, &J, &r);
+  Eigen::MatrixXd A = J.transpose() * J;
+  Eigen::FullPivLU<Eigen::MatrixXd> lu(A);
+  if (!p.allFinite() || !lu.isInvertible()) {
+    out.failure = "anchor geometry is degenerate";
+    return out;
+  }
+  out.ok = true;
+  out.position = p;
+  out.covariance_unit.topLeftCorner(dims, dims) = lu.inverse();
+  out.residual_rms_m = std::sqrt(cost / static_cast<double>(obs.size()));
+  return out;
+}
+
+// The Gauss-Newton step (J'J)^-1 J'r; NaN when J'J is singular.
+Eigen::VectorXd gauss_newton_step(const Eigen::MatrixXd& J, const Eigen::VectorXd& r) {
+  Eigen::FullPivLU<Eigen::MatrixXd> lu(J.transpose() * J);
+  if (!lu.isInvertible())
+    return Eigen::VectorXd::Constant(J.cols(), std::numeric_limits<double>::quiet_NaN());
+  return lu.solve(J.transpose() * r);
+}
+
+}  // namespace
+
+std::optional<MultilaterationSolver> parse_multilateration_solver(const std::string& name) {
+  if (name == "lm") return MultilaterationSolver::kLevenbergMarquardt;
+  if (name == "gauss_newton") return MultilaterationSolver::kGaussNewton;
+  if (name == "foy") return MultilaterationSolver::kFoy;
+  return std::nullopt;
+}
+
+const char* multilateration_solver_name(MultilaterationSolver solver) {
+  switch (solver) {
+    case MultilaterationSolver::kLevenbergMarquardt: return "lm";
+    case MultilaterationSolver::kGaussNewton: return "gauss_newton";
+    case MultilaterationSolver::kFoy: return "foy";
+  }
+  return "?";
+}
+
+MultilaterationResult multilaterate(std::span<const RangeObservation> obs,
+                                    const MultilaterationOptions& opts,
+                                    MultilaterationSolver solver, Eigen::Vector3d initial) {
+  switch (solver) {
+    case MultilaterationSolver::kGaussNewton:
+      return multilaterate_gauss_newton(obs, opts, initial);
+    case MultilaterationSolver::kFoy:
+      return multilaterate_foy(obs, opts);
+    case MultilaterationSolver::kLevenbergMarquardt:
+      break;
+  }
+  return multilaterate_lm(obs, opts, initial);
+}
+
+MultilaterationResult multilaterate_foy(std::span<const RangeObservation> obs,
+                                        const MultilaterationOptions& opts) {
+  MultilaterationResult out;
+  Eigen::Vector3d p = Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
+  if (!prepare(obs, opts, p, out)) return out;
+  const Eigen::Vector3d start = p;
+  const int dims = opts.fixed_height ? 2 : 3;
+  Eigen::MatrixXd G;
+  Eigen::VectorXd h;
+  for (int it = 1; it <= opts.max_iterations; ++it) {
+    residuals(obs, p, dims, &G, &h);
+    const Eigen::VectorXd d = gauss_newton_step(G, h);
+    if (!d.allFinite()) {
+      out.failure = "anchor geometry is degenerate";
+      return out;
+    }
+    p.head(dims) += d;
+    if ((p - start).norm() > opts.divergence_m) {
+      out.failure = "diverged beyond " + std::to_string(opts.divergence_m) + " m";
+      return out;
+    }
+    if (d.norm() < opts.convergence_m) return finish(obs, p, dims, it);
+  }
+  out.failure = "did not converge in " + std::to_string(opts.max_iterations) + " iterations";
+  return out;
+}
+
+MultilaterationResult multilaterate_gauss_newton(std::span<const RangeObservation> obs,
+                                                 const MultilaterationOptions& opts,
+                                                 Eigen::Vector3d initial) {
+  MultilaterationResult out;
+  if (!prepare(obs, opts, initial, out)) return out;
+  const int dims = opts.fixed_height ? 2 : 3;
+  Eigen::Vector3d p = initial;
+  Eigen::MatrixXd J;
+  Eigen::VectorXd r;
+  double cost = residuals(obs, p, dims, &J, &r);
+  for (int it = 1; it <= opts.max_iterations; ++it) {
+    Eigen::VectorXd step = gauss_newton_step(J, r);
+    if (!step.allFinite()) {
+      out.failure = "anchor geometry is degenerate";
+      return out;
+    }
+    // Step halving: the full step can overshoot far from the solution (poor geometry).
+    Eigen::Vector3d candidate = p;
+    double new_cost = cost;
+    int halvings = 0;
+    for (; halvings <= 10; ++halvings, step *= 0.5) {
+      candidate = p;
+      candidate.head(dims) += step;
+      new_cost = residuals(obs, candidate, dims, nullptr, nullptr);
+      if (new_cost <= cost) break;
+    }
+    if (halvings > 10) return finish(obs, p, dims, it);  // no step lowers the cost: at a minimum
+    p = candidate;
+    cost = residuals(obs, p, dims, &J, &r);
+    if ((p - initial).norm() > opts.divergence_m) {
+      out.failure = "diverged beyond " + std::to_string(opts.divergence_m) + " m";
+      return out;
+    }
+    if (step.norm() < 1e-3 * opts.convergence_m) return finish(obs, p, dims, it);
+  }
+  out.failure = "did not converge in " + std::to_string(opts.max_iterations) + " iterations";
+  return out;
+}
+
+MultilaterationResult multilaterate_lm(std::span<const RangeObservation> obs,
+                                       const MultilaterationOptions& opts,
+                                       Eigen::Vector3d initial) {
+  MultilaterationResult out;
+  if (!prepare(obs, opts, initial, out)) return out;
+  const int dims = opts.fixed_height ? 2 : 3;
 
   Eigen::Vector3d p = initial;
   double lambda = opts.lambda0;
@@ -52,7 +186,8 @@ MultilaterationResult multilaterate_lm(std::span<const RangeObservation> obs,
   Eigen::VectorXd r;
   double cost = residuals(obs, p, dims, &J, &r);
   bool converged = false;
-  for (out.iterations = 1; out.iterations <= opts.max_iterations; ++out.iterations) {
+  int it = 1;
+  for (; it <= opts.max_iterations; ++it) {
     Eigen::MatrixXd A = J.transpose() * J;
     Eigen::VectorXd g = J.transpose() * r;
     // Marquardt's scaling of the damping by the diagonal.
@@ -88,8 +223,8 @@ MultilaterationResult multilaterate_lm(std::span<const RangeObservation> obs,
   }
   // A few undamped Gauss-Newton polish steps: LM stops at the 0.03 m step criterion.
   for (int k = 0; k < 3; ++k) {
-    Eigen::MatrixXd A = J.transpose() * J;
-    Eigen::VectorXd step = A.ldlt().solve(J.transpose() * r);
+    const Eigen::VectorXd step = gauss_newton_step(J, r);
+    if (!step.allFinite()) break;
     Eigen::Vector3d candidate = p;
     candidate.head(dims) += step;
     double new_cost = residuals(obs, candidate, dims, nullptr, nullptr);
@@ -97,17 +232,7 @@ MultilaterationResult multilaterate_lm(std::span<const RangeObservation> obs,
     p = candidate;
     cost = residuals(obs, p, dims, &J, &r);
   }
-  Eigen::MatrixXd A = J.transpose() * J;
-  Eigen::FullPivLU<Eigen::MatrixXd> lu(A);
-  if (!lu.isInvertible() || !p.allFinite()) {
-    out.failure = "anchor geometry is degenerate";
-    return out;
-  }
-  out.ok = true;
-  out.position = p;
-  out.covariance_unit.topLeftCorner(dims, dims) = lu.inverse();
-  out.residual_rms_m = std::sqrt(cost / static_cast<double>(obs.size()));
-  return out;
+  return finish(obs, p, dims, it);
 }
 
 }  // namespace ips

@@ -1,9 +1,16 @@
 #pragma once
-// Per-epoch position from ranges to known anchors: Levenberg-Marquardt on the range residuals
-// (parameters from ../shared/reference/001_hybrid_uwb_ins.md: lambda 1, factor 5, at most 100
-// iterations, convergence 0.03 m, divergence 100 m). 2D mode fixes the height.
+// Per-epoch position from ranges to known anchors, three solvers of the range residuals:
+// - Levenberg-Marquardt (parameters from ../shared/reference/001_hybrid_uwb_ins.md: lambda 1,
+//   factor 5, at most 100 iterations, convergence 0.03 m, divergence 100 m);
+// - Gauss-Newton with step halving (a step that raises the cost is halved up to 10 times);
+// - Foy's Taylor-series least squares as the source prints it (001 §3.3.2): start at the
+//   anchors' centroid, undamped steps d = (G'G)^-1 G'h until |d| < convergence_m.
+// 2D mode fixes the height; the ranges are then 3D distances to a point at that height, which is
+// the same as Foy's "remove the height trigonometrically" (r_h = sqrt(r^2 - dh^2)) without the
+// square root's failure for r < dh.
 #include <Eigen/Core>
 #include <limits>
+#include <optional>
 #include <span>
 #include <string>
 
@@ -33,8 +40,25 @@ struct MultilaterationResult {
   std::string failure;  // why !ok
 };
 
-// Solves from `initial` (the anchors' centroid when NaN). Needs at least 3 ranges in 2D and 4 in
-// 3D.
+enum class MultilaterationSolver { kLevenbergMarquardt, kGaussNewton, kFoy };
+
+// "lm", "gauss_newton", "foy"; nullopt for anything else.
+std::optional<MultilaterationSolver> parse_multilateration_solver(const std::string& name);
+const char* multilateration_solver_name(MultilaterationSolver solver);
+
+// Each solves from `initial` (the anchors' centroid when NaN; Foy always starts there). Each needs
+// at least 3 ranges in 2D and 4 in 3D.
+MultilaterationResult multilaterate(std::span<const RangeObservation> obs,
+                                    const MultilaterationOptions& opts,
+                                    MultilaterationSolver solver,
+                                    Eigen::Vector3d initial = Eigen::Vector3d::Constant(
+                                        std::numeric_limits<double>::quiet_NaN()));
+MultilaterationResult multilaterate_gauss_newton(std::span<const RangeObservation> obs,
+                                                 const MultilaterationOptions& opts,
+                                                 Eigen::Vector3d initial = Eigen::Vector3d::Constant(
+                                                     std::numeric_limits<double>::quiet_NaN()));
+MultilaterationResult multilaterate_foy(std::span<const RangeObservation> obs,
+                                        const MultilaterationOptions& opts);
 MultilaterationResult multilaterate_lm(std::span<const RangeObservation> obs,
                                        const MultilaterationOptions& opts,
                                        Eigen::Vector3d initial = Eigen::Vector3d::Constant(

@@ -36,25 +36,4 @@ struct CvFilter {
   }
 };
 
-// Two-way range to an anchor: h(x) = |p - a| (2D: height fixed at `height`).
-// Gated asymmetrically (NLOS ranges are too long). `innovation` receives z - h(x).
-template <int D>
-UpdateResult range_update(CvFilter<D>& f, const Eigen::Vector3d& anchor, double height,
-                          double range_m, double r_var, double gate_chi2,
-                          double gate_chi2_positive, double* innovation) {
-  Eigen::Vector3d p;
-  if constexpr (D == 2) {
-    p << f.x(0), f.x(1), height;
-  } else {
-    p = f.x.template head<3>();
-  }
-  const Eigen::Vector3d d = p - anchor;
-  const double predicted = std::max(d.norm(), 1e-6);
-  Mat<1, 2 * D> H = Mat<1, 2 * D>::Zero();
-  H.template head<D>() = (d.template head<D>() / predicted).transpose();
-  const double y = range_m - predicted;
-  if (innovation) *innovation = y;
-  return scalar_update<2 * D>(f.x, f.P, H, y, r_var, gate_chi2, gate_chi2_positive);
-}
-
 }  // namespace ips::uwb_twr

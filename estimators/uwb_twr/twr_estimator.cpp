@@ -1,5 +1,6 @@
 #include "estimators/uwb_twr/twr_estimator.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <vector>
@@ -16,7 +17,8 @@ TwrParams parse_twr_params(const YamlField& s) {
   TwrParams p;
   if (!s.defined()) return p;
   if (!s.is_map()) s.fail("expected a map of uwb_twr parameters");
-  s.check_keys({"mode", "range_sigma_m", "accel_psd", "gate_sigma", "nlos_gate_sigma",
+  s.check_keys({"mode", "init_solver", "range_sigma_m", "accel_psd", "gate_sigma", "nlos_gate_sigma",
+                "nlos_downweight_sigma",
                 "epoch_window_s", "init_velocity_sigma_mps", "reinit_after_rejections",
                 "max_coast_s", "publish_period_s", "reorder_tolerance_s", "max_range_m",
                 "max_tags"});
@@ -28,10 +30,15 @@ TwrParams parse_twr_params(const YamlField& s) {
   std::string mode = s.get_string("mode", "auto");
   if (mode != "auto" && mode != "3d") s["mode"].fail("expected auto (2D when the tag height is known) or 3d");
   p.force_3d = mode == "3d";
+  const std::string solver = s.get_string("init_solver", "lm");
+  const auto parsed = parse_multilateration_solver(solver);
+  if (!parsed) s["init_solver"].fail("expected lm, gauss_newton or foy");
+  p.init_solver = *parsed;
   positive("range_sigma_m", p.range_sigma_m);
   positive("accel_psd", p.accel_psd);
   positive("gate_sigma", p.gate_sigma);
   positive("nlos_gate_sigma", p.nlos_gate_sigma);
+  positive("nlos_downweight_sigma", p.nlos_downweight_sigma);
   positive("epoch_window_s", p.epoch_window_s);
   positive("init_velocity_sigma_mps", p.init_velocity_sigma_mps);
   positive("max_coast_s", p.max_coast_s);
@@ -54,6 +61,8 @@ void TwrEstimator::set_site(const Site& site) {
   params_ = parse_twr_params(site.estimator_params("uwb_twr"));
   site_ = site;
   tracks_.clear();
+  enabled_uwb_anchors_ = 0;
+  for (const auto& a : site.anchors) enabled_uwb_anchors_ += a.enabled && a.kind == "uwb";
 }
 
 void TwrEstimator::on_range(const uwb_range_t& m) {
@@ -62,6 +71,11 @@ void TwrEstimator::on_range(const uwb_range_t& m) {
   if (!plausible_utime(m.utime) || !std::isfinite(m.range_m) || m.range_m < 0 ||
       m.range_m > params_.max_range_m) {
     ++stats_.dropped_invalid;
+    return;
+  }
+  if (site_->find_anchor(m.tag_id)) {
+    // Anchor-to-anchor ranging (ips-uwb-survey's input): neither end is a tag.
+    ++stats_.anchor_pair_ranges;
     return;
   }
   const Anchor* anchor = site_->find_anchor(m.anchor_id);
@@ -95,7 +109,10 @@ void TwrEstimator::on_range(const uwb_range_t& m) {
     const Tag* tag = site_->find_tag(m.tag_id);
     t.planar = !params_.force_3d && tag && std::isfinite(tag->height_m);
     t.height_m = t.planar ? tag->height_m : 0.0;
+    t.anchor_rejections.assign(site_->anchors.size(), 0);
+    t.anchor_heard_utime.assign(site_->anchors.size(), 0);
   }
+  const auto anchor_index = static_cast<size_t>(anchor - site_->anchors.data());
   if (t.newest_utime != 0) {
     const utime_t behind = t.newest_utime - m.utime;
     if (behind > s_to_utime(params_.max_coast_s)) {
@@ -103,6 +120,8 @@ void TwrEstimator::on_range(const uwb_range_t& m) {
       // or one bogus future stamp before): start this track afresh rather than drop forever.
       ++stats_.time_resets;
       Track fresh;
+      fresh.anchor_rejections.assign(t.anchor_rejections.size(), 0);
+      fresh.anchor_heard_utime.assign(t.anchor_heard_utime.size(), 0);
       fresh.planar = t.planar;
       fresh.height_m = t.height_m;
       t = std::move(fresh);
@@ -111,7 +130,9 @@ void TwrEstimator::on_range(const uwb_range_t& m) {
       return;
     }
   }
+  if (t.first_utime == 0) t.first_utime = m.utime;
   t.newest_utime = std::max(t.newest_utime, m.utime);
+  t.anchor_heard_utime[anchor_index] = std::max(t.anchor_heard_utime[anchor_index], m.utime);
   t.recent.push_back({m.utime, m.anchor_id, m.range_m});
   while (t.recent.size() > 64 ||
          (t.recent.size() > 1 &&
@@ -125,57 +146,110 @@ void TwrEstimator::on_range(const uwb_range_t& m) {
     return;
   }
   if (t.planar) {
-    update<2>(t, t.f2, anchor->position, m);
+    update<2>(t, t.f2, anchor_index, m);
+  } else {
+    update<3>(t, t.f3, anchor_index, m);
+  }
+  if (t.check_fix) {
+    t.check_fix = false;
+    if (t.initialised && try_initialise(t, m.utime, true)) ++stats_.reacquisitions;
+  }
+  if (!t.initialised) return;
+  if (t.planar) {
     publish<2>(t, t.f2, m.tag_id, m.utime);
   } else {
-    update<3>(t, t.f3, anchor->position, m);
     publish<3>(t, t.f3, m.tag_id, m.utime);
   }
 }
 
 template <int D>
-void TwrEstimator::update(Track& t, CvFilter<D>& f, const Eigen::Vector3d& anchor,
-                          const uwb_range_t& m) {
+void TwrEstimator::update(Track& t, CvFilter<D>& f, size_t anchor_index, const uwb_range_t& m) {
   if (m.utime > t.filter_utime) {
     f.predict(utime_to_s(m.utime - t.filter_utime), params_.accel_psd);
     t.filter_utime = m.utime;
   }
-  const double r_var = params_.range_sigma_m * params_.range_sigma_m;
-  // Asymmetric gate: a long range is probably NLOS, a short one is not.
-  double innovation = 0;
-  const UpdateResult r = range_update<D>(
-      f, anchor, t.height_m, m.range_m, r_var, params_.gate_sigma * params_.gate_sigma,
-      params_.nlos_gate_sigma * params_.nlos_gate_sigma, &innovation);
+  RangeNoise noise;
+  noise.r_var = params_.range_sigma_m * params_.range_sigma_m;
+  noise.gate_chi2 = params_.gate_sigma * params_.gate_sigma;
+  noise.gate_chi2_positive = params_.nlos_gate_sigma * params_.nlos_gate_sigma;
+  noise.downweight_sigma = params_.nlos_downweight_sigma;
+  const RangeUpdate r = range_update<D>(f, site_->anchors[anchor_index].position, t.height_m,
+                                        m.range_m, noise);
   if (!r.accepted) {
     ++stats_.rejected_gate;
     if (++t.consecutive_rejections >= params_.reinit_after_rejections) t.initialised = false;
+    // One anchor gated again and again while others are accepted: either it is NLOS, or the
+    // track sits in a wrong minimum that the accepted anchors cannot tell from the truth (e.g. the
+    // mirror image across the line of two anchors). on_range() checks with a fresh fix.
+    if (++t.anchor_rejections[anchor_index] >= params_.reinit_after_rejections) {
+      t.anchor_rejections[anchor_index] = 0;
+      t.check_fix = true;
+    }
     return;
   }
+  t.anchor_rejections[anchor_index] = 0;
+  if (r.downweighted) ++stats_.downweighted;
   ++stats_.ranges_used;
   t.consecutive_rejections = 0;
   t.last_accept_utime = std::max(t.last_accept_utime, m.utime);
   ++t.used_since_publish;
-  t.sq_innov_since_publish += innovation * innovation;
+  t.sq_innov_since_publish += r.innovation_m * r.innovation_m;
 }
 
-void TwrEstimator::try_initialise(Track& t, utime_t now) {
+bool TwrEstimator::try_initialise(Track& t, utime_t now, bool only_if_elsewhere) {
   // The newest range per anchor within the epoch window.
   std::map<std::string, double> latest;
   for (const auto& e : t.recent)
     if (now - e.utime <= s_to_utime(params_.epoch_window_s)) latest[e.anchor_id] = e.range_m;
   std::vector<RangeObservation> obs;
   for (const auto& [id, r] : latest) obs.push_back({site_->find_anchor(id)->position, r});
+  const int dims = t.planar ? 2 : 3;
+  // Wait for an epoch with every anchor the tag has been heard by lately: with one range less
+  // than it could have, a wrong local minimum (the mirror image across two anchors' line) can fit
+  // as well as the truth.
+  int heard = 0;
+  for (utime_t last : t.anchor_heard_utime)
+    heard += last != 0 && now - last <= s_to_utime(params_.max_coast_s);
+  int required = std::max(dims + 1, heard);
+  // A new track has not heard every anchor yet: give the rest one second (and two epochs) to
+  // show up before starting from the bare minimum.
+  if (now - t.first_utime < std::max<utime_t>(1'000'000, 2 * s_to_utime(params_.epoch_window_s)))
+    required = std::max(required, std::min(dims + 2, enabled_uwb_anchors_));
+  if (static_cast<int>(obs.size()) < required) return false;
   MultilaterationOptions o;
   o.fixed_height = t.planar;
   o.height_m = t.height_m;
-  if (static_cast<int>(obs.size()) < (t.planar ? 3 : 4)) return;
-  MultilaterationResult res = multilaterate_lm(obs, o);
-  // A large residual means an NLOS range in the set: wait for a cleaner epoch.
-  if (!res.ok || res.residual_rms_m > 3.0 * params_.range_sigma_m + 0.2) return;
+  const double max_residual = 3.0 * params_.range_sigma_m + 0.2;
+  MultilaterationResult res = multilaterate(obs, o, params_.init_solver);
+  if (!(res.ok && res.residual_rms_m <= max_residual) &&
+      static_cast<int>(obs.size()) >= dims + 2) {
+    // A large residual means an NLOS range in the set: try without each range in turn and keep
+    // the best fit (one blocked anchor must not keep the tag from starting).
+    MultilaterationResult best;
+    for (size_t skip = 0; skip < obs.size(); ++skip) {
+      std::vector<RangeObservation> subset;
+      for (size_t k = 0; k < obs.size(); ++k)
+        if (k != skip) subset.push_back(obs[k]);
+      MultilaterationResult r = multilaterate(subset, o, params_.init_solver);
+      if (r.ok && (!best.ok || r.residual_rms_m < best.residual_rms_m)) best = r;
+    }
+    res = best;
+  }
+  if (!res.ok || res.residual_rms_m > max_residual) return false;
+  if (only_if_elsewhere) {
+    // Every anchor agrees on a fix the track's covariance does not cover: the track is wrong.
+    const Eigen::VectorXd track =
+        t.planar ? Eigen::VectorXd(t.f2.x.head<2>()) : Eigen::VectorXd(t.f3.x.head<3>());
+    const double spread = t.planar ? std::sqrt(t.f2.P.topLeftCorner<2, 2>().trace())
+                                   : std::sqrt(t.f3.P.topLeftCorner<3, 3>().trace());
+    if ((res.position.head(dims) - track).norm() <=
+        std::max(1.0, params_.gate_sigma * spread))
+      return false;
+  }
 
   const double sigma = std::max(params_.range_sigma_m, res.residual_rms_m);
   const double v_var = params_.init_velocity_sigma_mps * params_.init_velocity_sigma_mps;
-  auto init = [&](auto& f, int dims) {
+  auto init = [&](auto& f) {
     f.x.setZero();
     f.P.setZero();
     for (int k = 0; k < dims; ++k) f.x(k) = res.position(k);
@@ -185,9 +259,9 @@ void TwrEstimator::try_initialise(Track& t, utime_t now) {
     f.P.bottomRightCorner(dims, dims) = Eigen::MatrixXd::Identity(dims, dims) * v_var;
   };
   if (t.planar)
-    init(t.f2, 2);
+    init(t.f2);
   else
-    init(t.f3, 3);
+    init(t.f3);
   t.initialised = true;
   t.reinitialised = t.last_publish_utime != 0;
   ++stats_.initialisations;
@@ -196,6 +270,8 @@ void TwrEstimator::try_initialise(Track& t, utime_t now) {
   t.consecutive_rejections = 0;
   t.used_since_publish = static_cast<int>(obs.size());
   t.sq_innov_since_publish = res.residual_rms_m * res.residual_rms_m * static_cast<double>(obs.size());
+  std::fill(t.anchor_rejections.begin(), t.anchor_rejections.end(), 0);
+  return true;
 }
 
 template <int D>

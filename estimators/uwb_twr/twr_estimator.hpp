@@ -1,8 +1,12 @@
 #pragma once
 // Two-way-ranging tag tracker: per-epoch Levenberg-Marquardt multilateration to initialise,
-// then a constant-velocity EKF per tag (2D with the tag height from the site, or 3D) with
-// sequential range updates and Mahalanobis gating. Positive outliers (NLOS: the direct path is
-// blocked, so ranges are only ever too long) are gated tighter than negative ones.
+// (or Gauss-Newton, or Foy's method) to initialise, then a constant-velocity EKF per tag (2D with
+// the tag height from the site, or 3D) with sequential range updates and Mahalanobis gating.
+// NLOS (the direct path is blocked, so ranges are only ever too long): positive innovations are
+// gated tighter and down-weighted (models/uwb_range.hpp); an anchor gated again and again triggers
+// a check against a fresh fix, so a track caught in a wrong minimum (a mirror image) cannot
+// persist by rejecting the anchors that disagree. With 1 or 2 anchors in view the track keeps going: the unobserved
+// directions' covariance grows with the process noise instead of the estimate jumping.
 // Pure: takes messages, emits pose_t through a callback, never reads a clock.
 #include <deque>
 #include <functional>
@@ -11,21 +15,29 @@
 #include <map>
 #include <optional>
 #include <string>
+#include <vector>
 
+#include "core/multilateration.hpp"
 #include "core/site.hpp"
 #include "estimators/uwb_twr/cv_filter.hpp"
+#include "estimators/uwb_twr/models/uwb_range.hpp"
 
 namespace ips::uwb_twr {
 
 struct TwrParams {
   bool force_3d = false;          // estimate height even when the site gives one
+  // Per-epoch solver for (re-)initialisation.
+  MultilaterationSolver init_solver = MultilaterationSolver::kLevenbergMarquardt;
   double range_sigma_m = 0.10;    // measurement noise
   double accel_psd = 0.5;         // process noise, (m/s^2)^2/Hz
   double gate_sigma = 4.0;        // reject |innovation| > gate_sigma * sqrt(S) (negative side)
   double nlos_gate_sigma = 2.5;   // the same for positive innovations (ranges too long)
+  double nlos_downweight_sigma = 1.5;  // positive innovations beyond this are down-weighted
   double epoch_window_s = 0.2;    // ranges this close in time form one epoch for initialisation
   double init_velocity_sigma_mps = 1.0;
-  int reinit_after_rejections = 12;  // consecutive gated ranges that trigger re-initialisation
+  // Consecutive gated ranges (of all anchors) that trigger re-initialisation; the same number
+  // from one anchor triggers a check against a fresh per-epoch fix.
+  int reinit_after_rejections = 12;
   double max_coast_s = 3.0;       // no accepted range for this long: re-initialise
   double publish_period_s = 0.1;  // at most one pose per tag per period
   double reorder_tolerance_s = 0.05;  // ranges this far behind the tag's newest are still used
@@ -40,12 +52,15 @@ struct TwrStats {
   int64_t ranges_in = 0;
   int64_t ranges_used = 0;
   int64_t rejected_gate = 0;
+  int64_t downweighted = 0;            // accepted, with the variance inflated (long: NLOS?)
   int64_t dropped_unknown_anchor = 0;  // anchor not in the site or disabled
   int64_t dropped_invalid = 0;         // NaN, negative or absurd range, or implausible utime
   int64_t dropped_late = 0;            // older than the tag's newest range by reorder_tolerance_s
   int64_t time_resets = 0;             // older by more than max_coast_s: track restarted
   int64_t dropped_too_many_tags = 0;   // a new tag id while max_tags tracks are active
+  int64_t anchor_pair_ranges = 0;      // tag_id is an anchor of the site: survey input, not a tag
   int64_t initialisations = 0;
+  int64_t reacquisitions = 0;          // re-initialised because a fresh fix disagreed with the track
   int64_t poses_out = 0;
 };
 
@@ -82,11 +97,17 @@ class TwrEstimator {
     double sq_innov_since_publish = 0;
     bool reinitialised = false;
     std::deque<Epoch> recent;  // for (re)initialisation
+    utime_t first_utime = 0;  // the track's first range
+    std::vector<int> anchor_rejections;  // consecutive gated ranges per site anchor
+    std::vector<utime_t> anchor_heard_utime;  // newest range per site anchor
+    bool check_fix = false;
   };
 
-  void try_initialise(Track& t, utime_t now);
+  // Solves the newest range per anchor in the epoch window and starts the filter there; with
+  // only_if_elsewhere, only when the fix lies outside what the track's covariance covers.
+  bool try_initialise(Track& t, utime_t now, bool only_if_elsewhere = false);
   template <int D>
-  void update(Track& t, CvFilter<D>& f, const Eigen::Vector3d& anchor, const uwb_range_t& m);
+  void update(Track& t, CvFilter<D>& f, size_t anchor_index, const uwb_range_t& m);
   template <int D>
   void publish(Track& t, const CvFilter<D>& f, const std::string& tag_id, utime_t now);
 
@@ -95,6 +116,7 @@ class TwrEstimator {
   std::optional<Site> site_;
   TwrParams params_;
   std::map<std::string, Track> tracks_;
+  int enabled_uwb_anchors_ = 0;
   TwrStats stats_;
 };
 

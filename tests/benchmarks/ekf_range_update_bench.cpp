@@ -2,7 +2,7 @@
 // path), 2D (4 states) and 3D (6 states). Run: build/release/bin/ips-bench
 #include <benchmark/benchmark.h>
 
-#include "estimators/uwb_twr/cv_filter.hpp"
+#include "estimators/uwb_twr/models/uwb_range.hpp"
 
 namespace {
 
@@ -16,13 +16,13 @@ void BM_PredictRangeUpdate(benchmark::State& state) {
   f.P = ips::Mat<2 * D>::Identity() * 0.1;
   const Eigen::Vector3d anchors[4] = {{0, 0, 2.4}, {10, 0, 2.4}, {10, 8, 2.4}, {0, 8, 2.4}};
   int i = 0;
-  double innovation = 0;
+  ips::uwb_twr::RangeNoise noise{0.01, 16.0, 6.25, 1.5};
   for (auto _ : state) {
     const Eigen::Vector3d& a = anchors[i++ & 3];
     f.predict(0.025, 0.5);
     Eigen::Vector3d p(f.x(0), f.x(1), D == 3 ? f.x(2) : 1.2);
     const double r = (p - a).norm() + 0.01;
-    auto res = ips::uwb_twr::range_update<D>(f, a, 1.2, r, 0.01, 16.0, 6.25, &innovation);
+    auto res = ips::uwb_twr::range_update<D>(f, a, 1.2, r, noise);
     benchmark::DoNotOptimize(res);
     benchmark::DoNotOptimize(f.x);
   }

@@ -1,0 +1,65 @@
+#pragma once
+// Measurement model: a two-way range to an anchor, h(x) = |p - a| (2D: the tag's height fixed).
+//
+// NLOS handling. A blocked direct path makes a range too long, never too short, so positive
+// innovations are treated apart from negative ones:
+// - gated tighter (gate_chi2_positive against gate_chi2);
+// - down-weighted before the gate: a positive innovation of nu > downweight_sigma standard
+//   deviations gets its measurement variance multiplied by nu / downweight_sigma (Huber's
+//   weight k / |nu| as a variance), so a moderately long range pulls the estimate as much as
+//   one at the threshold and no more.
+#include <cmath>
+
+#include "core/ekf.hpp"
+#include "estimators/uwb_twr/cv_filter.hpp"
+
+namespace ips::uwb_twr {
+
+struct RangeNoise {
+  double r_var = 0.01;                   // m^2
+  double gate_chi2 = kNoGate;            // for innovations <= 0 (range shorter than predicted)
+  double gate_chi2_positive = kNoGate;   // for innovations > 0 (longer: NLOS)
+  double downweight_sigma = kNoGate;     // Huber threshold for positive innovations; inf: off
+};
+
+struct RangeUpdate {
+  bool accepted = false;
+  bool downweighted = false;
+  double innovation_m = 0;  // z - h(x) before the update
+  double normalised = 0;    // innovation / sqrt(H P H' + r_var)
+};
+
+template <int D>
+RangeUpdate range_update(CvFilter<D>& f, const Eigen::Vector3d& anchor, double height,
+                         double range_m, const RangeNoise& noise) {
+  Eigen::Vector3d p;
+  if constexpr (D == 2) {
+    p << f.x(0), f.x(1), height;
+  } else {
+    p = f.x.template head<3>();
+  }
+  const Eigen::Vector3d d = p - anchor;
+  const double predicted = std::max(d.norm(), 1e-6);
+  Mat<1, 2 * D> H = Mat<1, 2 * D>::Zero();
+  H.template head<D>() = (d.template head<D>() / predicted).transpose();
+  RangeUpdate out;
+  out.innovation_m = range_m - predicted;
+  // Only the position block of H is non-zero.
+  const double hph = H.template head<D>() * f.P.template topLeftCorner<D, D>() *
+                     H.template head<D>().transpose();
+  const double S = hph + noise.r_var;
+  if (!(S > 0) || !std::isfinite(out.innovation_m)) return out;
+  out.normalised = out.innovation_m / std::sqrt(S);
+  const double gate = out.innovation_m > 0 ? noise.gate_chi2_positive : noise.gate_chi2;
+  if (out.normalised * out.normalised > gate) return out;
+  double r_var = noise.r_var;
+  if (out.normalised > noise.downweight_sigma) {
+    r_var *= out.normalised / noise.downweight_sigma;
+    out.downweighted = true;
+  }
+  out.accepted =
+      scalar_update<2 * D>(f.x, f.P, H, out.innovation_m, r_var).accepted;
+  return out;
+}
+
+}  // namespace ips::uwb_twr
