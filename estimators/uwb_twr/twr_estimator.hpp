@@ -19,7 +19,7 @@
 
 #include "core/multilateration.hpp"
 #include "core/site.hpp"
-#include "estimators/uwb_twr/cv_filter.hpp"
+#include "core/cv_filter.hpp"
 #include "estimators/uwb_twr/models/uwb_range.hpp"
 
 namespace ips::uwb_twr {

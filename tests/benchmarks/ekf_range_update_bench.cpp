@@ -8,7 +8,7 @@ namespace {
 
 template <int D>
 void BM_PredictRangeUpdate(benchmark::State& state) {
-  using ips::uwb_twr::CvFilter;
+  using ips::CvFilter;
   CvFilter<D> f;
   f.x.setZero();
   f.x(0) = 3.0;

@@ -11,7 +11,7 @@
 #include <cmath>
 
 #include "core/ekf.hpp"
-#include "estimators/uwb_twr/cv_filter.hpp"
+#include "core/cv_filter.hpp"
 
 namespace ips::uwb_twr {
 

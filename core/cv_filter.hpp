@@ -1,11 +1,12 @@
 #pragma once
 // Constant-velocity Kalman filter in D dimensions (D = 2: height known from the site; D = 3),
-// state [position; velocity], white-acceleration process noise.
+// state [position; velocity], white-acceleration process noise. The motion model of the UWB
+// trackers (ips-uwb-twr, ips-uwb-tdoa); their measurement models live beside them (models/).
 #include <cmath>
 
 #include "core/ekf.hpp"
 
-namespace ips::uwb_twr {
+namespace ips {
 
 template <int D>
 struct CvFilter {
@@ -36,4 +37,4 @@ struct CvFilter {
   }
 };
 
-}  // namespace ips::uwb_twr
+}  // namespace ips
