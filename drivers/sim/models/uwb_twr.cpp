@@ -5,6 +5,11 @@
 // mean episode length is nlos_episode_s, with one bias per episode (a person or a pillar blocking
 // the direct path for a while). Ranging is time-multiplexed: each pair has its own slot; the rate
 // can be set per anchor.
+// Anchor-to-anchor ranging (anchor_pairs_rate_hz > 0), the input of ips-uwb-survey: every
+// unordered pair of enabled `uwb` anchors ranges with the same error model, published as a real
+// network does it, with the first anchor (site order) acting as the initiator: tag_id = its id.
+// These sources draw from streams named "UWB_RANGE_PAIR A B", so turning them on leaves every
+// tag stream (and every other model's) exactly as it was.
 #include <algorithm>
 #include <ips/uwb_range_t.hpp>
 
@@ -24,8 +29,10 @@ struct UwbTwrParams {
   double loss_probability = 0.0;
   double max_range_m = 100.0;
   double nlos_episode_s = 0.0;    // 0: independent outliers; > 0: mean NLOS episode length
+  double anchor_pairs_rate_hz = 0.0;  // per anchor pair; 0: no anchor-to-anchor ranging
 };
 
+// One ranging pair: a walker's tag, or an anchor acting as the initiator, to an anchor.
 class UwbTwrSource : public PeriodicSource {
  public:
   UwbTwrSource(const UwbTwrParams& p, double rate_hz, const TagTrajectory& walker,
@@ -33,13 +40,24 @@ class UwbTwrSource : public PeriodicSource {
       : PeriodicSource(period_us(rate_hz), phase_us),
         p_(p),
         dt_s_(1.0 / rate_hz),
-        walker_(walker),
+        initiator_id_(walker.tag_id),
+        walker_(&walker),
+        anchor_(anchor),
+        rng_(std::move(rng)) {}
+  UwbTwrSource(const UwbTwrParams& p, double rate_hz, const Anchor& initiator, const Anchor& anchor,
+               int64_t phase_us, std::mt19937_64 rng)
+      : PeriodicSource(period_us(rate_hz), phase_us),
+        p_(p),
+        dt_s_(1.0 / rate_hz),
+        initiator_id_(initiator.id),
+        initiator_position_(initiator.position),
         anchor_(anchor),
         rng_(std::move(rng)) {}
 
  protected:
   bool emit(utime_t t, double t_s, SimEvent& ev) override {
-    const double true_range = (walker_.path.at(t_s).position - anchor_.position).norm();
+    const Eigen::Vector3d from = walker_ ? walker_->path.at(t_s).position : initiator_position_;
+    const double true_range = (from - anchor_.position).norm();
     // Draw every random number whether or not the range survives, so the stream stays aligned.
     std::uniform_real_distribution<double> uni(0.0, 1.0);
     std::normal_distribution<double> gauss(0.0, 1.0);
@@ -70,7 +88,7 @@ class UwbTwrSource : public PeriodicSource {
     uwb_range_t m;
     m.utime = t;
     m.source = kSimSource;
-    m.tag_id = walker_.tag_id;
+    m.tag_id = initiator_id_;
     m.anchor_id = anchor_.id;
     m.range_m = std::max(0.0, r);
     m.rx_power_dbm = m.fp_power_dbm = m.quality = std::numeric_limits<float>::quiet_NaN();
@@ -84,7 +102,9 @@ class UwbTwrSource : public PeriodicSource {
   double dt_s_;
   bool in_nlos_ = false;
   double episode_bias_m_ = 0;
-  const TagTrajectory& walker_;
+  std::string initiator_id_;
+  const TagTrajectory* walker_ = nullptr;  // nullptr: the initiator is an anchor
+  Eigen::Vector3d initiator_position_ = Eigen::Vector3d::Zero();
   const Anchor& anchor_;
   std::mt19937_64 rng_;
   int32_t seq_ = 0;
@@ -93,7 +113,7 @@ class UwbTwrSource : public PeriodicSource {
 SourceList make(const YamlField& f, const SimWorld& world) {
   f.check_keys({"enabled", "rate_hz", "noise_sigma_m", "bias_m", "nlos_probability",
                 "nlos_bias_min_m", "nlos_bias_max_m", "loss_probability", "max_range_m",
-                "nlos_episode_s", "anchor_rates_hz"});
+                "nlos_episode_s", "anchor_rates_hz", "anchor_pairs_rate_hz"});
   UwbTwrParams p;
   p.rate_hz = param_in_range(f, "rate_hz", p.rate_hz, 0.01, 1000);
   p.noise_sigma_m = param_in_range(f, "noise_sigma_m", p.noise_sigma_m, 0, 100);
@@ -104,6 +124,10 @@ SourceList make(const YamlField& f, const SimWorld& world) {
   p.loss_probability = param_in_range(f, "loss_probability", p.loss_probability, 0, 1);
   p.max_range_m = param_in_range(f, "max_range_m", p.max_range_m, 0, 1e6);
   p.nlos_episode_s = param_in_range(f, "nlos_episode_s", p.nlos_episode_s, 0, 3600);
+  p.anchor_pairs_rate_hz = f.get_double("anchor_pairs_rate_hz", p.anchor_pairs_rate_hz);
+  if (!(p.anchor_pairs_rate_hz == 0 ||
+        (p.anchor_pairs_rate_hz >= 0.01 && p.anchor_pairs_rate_hz <= 1000)))
+    f["anchor_pairs_rate_hz"].fail("must be 0 (off) or in [0.01, 1000]");
   // Per-anchor rates: {A1: 5, A3: 20}; other anchors range at rate_hz.
   const YamlField rates = f["anchor_rates_hz"];
   if (rates.defined() && !rates.is_map()) rates.fail("expected a map of anchor id to rate in Hz");
@@ -127,6 +151,20 @@ SourceList make(const YamlField& f, const SimWorld& world) {
       out.push_back(std::make_unique<UwbTwrSource>(
           p, rates.get_double(a->id, p.rate_hz), w, *a, (slot++ * period) / slots + 1000,
           stream_rng(world.seed, "UWB_RANGE " + w.tag_id + " " + a->id)));
+  // Anchor pairs after every tag source, each in its own slot of the pair period (offset by half
+  // a millisecond from the tag slots' 1 ms so that the two schedules rarely coincide).
+  if (p.anchor_pairs_rate_hz > 0) {
+    const int64_t pair_period = period_us(p.anchor_pairs_rate_hz);
+    const int64_t pairs =
+        std::max<int64_t>(1, static_cast<int64_t>(anchors.size() * (anchors.size() - 1) / 2));
+    int64_t pair_slot = 0;
+    for (size_t i = 0; i < anchors.size(); ++i)
+      for (size_t j = i + 1; j < anchors.size(); ++j)
+        out.push_back(std::make_unique<UwbTwrSource>(
+            p, p.anchor_pairs_rate_hz, *anchors[i], *anchors[j],
+            (pair_slot++ * pair_period) / pairs + 1500,
+            stream_rng(world.seed, "UWB_RANGE_PAIR " + anchors[i]->id + " " + anchors[j]->id)));
+  }
   return out;
 }
 

@@ -39,8 +39,12 @@ TEST(Simulator, DifferentSeedDifferentNoise) {
   // lose messages at random, so whole streams differ in length.
   auto ranges = [](const std::vector<SimEvent>& ev) {
     std::vector<std::vector<uint8_t>> out;
-    for (const auto& e : ev)
-      if (e.kind == "UWB_RANGE") out.push_back(e.data);
+    for (const auto& e : ev) {
+      if (e.kind != "UWB_RANGE") continue;
+      uwb_range_t r;
+      r.decode(e.data.data(), 0, static_cast<int>(e.data.size()));
+      if (r.tag_id == "T1") out.push_back(e.data);  // the tag's, not the anchor pairs'
+    }
     return out;
   };
   auto a = ranges(run(1, 5)), b = ranges(run(2, 5));
@@ -56,15 +60,22 @@ TEST(Simulator, EventsInTimeOrderWithSiteFirstAndRatesAsConfigured) {
   ASSERT_FALSE(ev.empty());
   EXPECT_EQ(ev[0].kind, "SITE");
   std::map<std::string, int> counts;
+  int anchor_pairs = 0;
   for (size_t i = 0; i < ev.size(); ++i) {
     if (i) {
       EXPECT_LE(ev[i - 1].utime, ev[i].utime);
     }
     counts[ev[i].kind]++;
+    if (ev[i].kind == "UWB_RANGE") {
+      uwb_range_t r;
+      r.decode(ev[i].data.data(), 0, static_cast<int>(ev[i].data.size()));
+      anchor_pairs += r.tag_id != "T1";
+    }
   }
   EXPECT_EQ(counts["SITE"], 13);          // t = 0, 5, ..., 60 s
   EXPECT_NEAR(counts["TRUTH"], 3000, 2);  // 50 Hz
-  EXPECT_NEAR(counts["UWB_RANGE"], 2400, 4);  // 4 anchors x 10 Hz
+  EXPECT_NEAR(counts["UWB_RANGE"] - anchor_pairs, 2400, 4);  // 4 anchors x 10 Hz
+  EXPECT_NEAR(anchor_pairs, 360, 6);  // 6 anchor pairs x 1 Hz (anchor_pairs_rate_hz)
   EXPECT_LE(ev.back().utime, kStart + 60'000'000);
 }
 
@@ -89,6 +100,7 @@ TEST(Simulator, RangeErrorsFollowTheLabModel) {
     } else if (e.kind == "UWB_RANGE") {
       uwb_range_t r;
       r.decode(e.data.data(), 0, static_cast<int>(e.data.size()));
+      if (anchors.count(r.tag_id)) continue;  // anchor-to-anchor: no tag truth to compare with
       // Truth at 50 Hz is within 20 ms (2 cm at 1 m/s) of the range: use samples within 1 ms.
       if (r.utime - truth_t > 1000) {
         // Recompute from the trajectory for an exact reference.
