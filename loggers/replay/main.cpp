@@ -80,6 +80,7 @@ int main(int argc, char** argv) {
         return 1;
       }
     }
+    host.finish();
     if (!in->finish("replayed what was read")) return 2;
     if (std::fflush(out.getFilePtr()) != 0 || std::ferror(out.getFilePtr())) {
       ips::print_fatal("ips-replay", "write to '" + out_path + "' failed (disk full?)");

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <ips/site_t.hpp>
 #include <ips/uwb_range_t.hpp>
+#include <ips/uwb_rx_t.hpp>
 
 #include "core/channels.hpp"
 #include "core/node.hpp"
@@ -11,9 +12,10 @@ namespace ips::replay {
 
 namespace {
 constexpr const char* kUwbTwr = "uwb_twr";
+constexpr const char* kUwbTdoa = "uwb_tdoa";
 }
 
-std::vector<std::string> ReplayHost::available() { return {kUwbTwr}; }
+std::vector<std::string> ReplayHost::available() { return {kUwbTwr, kUwbTdoa}; }
 
 ReplayHost::ReplayHost(const ReplayOptions& opts, const CommonOptions& channels, Sink sink)
     : channels_(channels), sink_(std::move(sink)), opts_(opts) {
@@ -31,12 +33,22 @@ ReplayHost::ReplayHost(const ReplayOptions& opts, const CommonOptions& channels,
     twr_ = std::make_unique<uwb_twr::TwrEstimator>([this, out](const pose_t& p) { emit(out, p); });
     produced_channels_.insert(out);
   }
+  if (wanted(kUwbTdoa)) {
+    const std::string pose_out = channels_.channel(channel::kPoseTdoa);
+    const std::string clock_out = channels_.channel(channel::kClock);
+    tdoa_ = std::make_unique<uwb_tdoa::TdoaEstimator>(
+        [this, pose_out](const pose_t& p) { emit(pose_out, p); },
+        [this, clock_out](const clock_t& c) { emit(clock_out, c); });
+    produced_channels_.insert(pose_out);
+    produced_channels_.insert(clock_out);
+  }
   if (!opts_.site_path.empty()) apply_site(load_site_file(opts_.site_path));
 }
 
 std::vector<std::string> ReplayHost::hosted() const {
   std::vector<std::string> names;
   if (twr_) names.push_back(kUwbTwr);
+  if (tdoa_) names.push_back(kUwbTdoa);
   return names;
 }
 
@@ -50,6 +62,11 @@ void ReplayHost::emit(const std::string& channel, const Msg& msg) {
 
 void ReplayHost::apply_site(const Site& site) {
   if (twr_) twr_->set_site(site);
+  if (tdoa_) tdoa_->set_site(site);
+}
+
+void ReplayHost::finish() {
+  if (tdoa_) tdoa_->flush();
 }
 
 void ReplayHost::process(const std::string& channel, int64_t timestamp, const uint8_t* data,
@@ -83,6 +100,13 @@ void ReplayHost::process(const std::string& channel, int64_t timestamp, const ui
       return;
     }
     twr_->on_range(m);
+  } else if (tdoa_ && channel == channels_.channel(channel::kUwbRx)) {
+    uwb_rx_t m;
+    if (!decode_message(m, data, size)) {
+      ++stats_.undecodable;
+      return;
+    }
+    tdoa_->on_rx(m);
   }
 }
 

@@ -84,8 +84,9 @@ expect 2 "^ips-sim: error: --out excludes --speed" \
   "$BIN/ips-sim" --scenario lab --out "$WORK/y.lcm" --speed 2
 expect 2 "^ips-uwb-twr: error: --channel: unknown kind 'POSE_UBW'" \
   "$BIN/ips-uwb-twr" --channel POSE_UBW=X
+expect 2 "^ips-uwb-tdoa: error: .*nowhere.yaml" "$BIN/ips-uwb-tdoa" --site "$WORK/nowhere.yaml"
 
-for prog in ips-sim ips-uwb-twr ips-eval ips-bus-check; do
+for prog in ips-sim ips-uwb-twr ips-uwb-tdoa ips-uwb-survey ips-eval ips-bus-check; do
   if "$BIN/$prog" --help >"$WORK/out" 2>"$WORK/err" && grep -q -- "--log-level" "$WORK/out" &&
     [ ! -s "$WORK/err" ]; then
     echo "ok: $prog --help"

@@ -16,14 +16,24 @@ fail() { echo "FAIL: $*"; failures=$((failures + 1)); }
 cmp -s "$WORK/a.lcm" "$WORK/b.lcm" && echo "ok: byte-identical output" || fail "outputs differ"
 json=$("$BIN/ips-eval" --json "$WORK/a.lcm")
 rmse=$(echo "$json" | tr '{' '\n' | grep '"channel": "POSE_UWB"' | sed -E 's/.*"rmse_h": ([0-9.]+).*/\1/')
-awk -v r="$rmse" 'BEGIN { exit !(r != "" && r <= 0.15) }' && echo "ok: replayed POSE_UWB rmse_h $rmse" ||
-  fail "replayed POSE_UWB rmse_h '$rmse' (bound 0.15)"
+awk -v r="$rmse" 'BEGIN { exit !(r != "" && r <= 0.12) }' && echo "ok: replayed POSE_UWB rmse_h $rmse" ||
+  fail "replayed POSE_UWB rmse_h '$rmse' (bound 0.12)"
+rmse=$(echo "$json" | tr '{' '\n' | grep '"channel": "POSE_TDOA"' | sed -E 's/.*"rmse_h": ([0-9.]+).*/\1/')
+awk -v r="$rmse" 'BEGIN { exit !(r != "" && r <= 0.20) }' && echo "ok: replayed POSE_TDOA rmse_h $rmse" ||
+  fail "replayed POSE_TDOA rmse_h '$rmse' (bound 0.20)"
+n_clock=$(python3 -c "import lcm_log, sys; print(sum(ch == 'CLOCK' for ch, _, _ in lcm_log.events(sys.argv[1])[0]))" "$WORK/a.lcm")
+# 60 s: 30 syncs, each giving a clock_t per anchor (4, the master's included).
+[ "$n_clock" -ge 110 ] && [ "$n_clock" -le 120 ] && echo "ok: $n_clock CLOCK events" ||
+  fail "CLOCK events: $n_clock (expected about 120)"
 
-# Replaying the output again regenerates POSE_UWB instead of doubling it.
+# Replaying the output again regenerates the estimates instead of doubling them.
 "$BIN/ips-replay" "$WORK/a.lcm" --out "$WORK/c.lcm" --log-level warn
 n_a=$(grep -ac POSE_UWB "$WORK/a.lcm" || true)
 n_c=$(grep -ac POSE_UWB "$WORK/c.lcm" || true)
 [ "$n_a" = "$n_c" ] && echo "ok: re-replay keeps one POSE_UWB stream" || fail "POSE_UWB lines $n_a vs $n_c"
+n_a=$(grep -ac POSE_TDOA "$WORK/a.lcm" || true)
+n_c=$(grep -ac POSE_TDOA "$WORK/c.lcm" || true)
+[ "$n_a" = "$n_c" ] && echo "ok: re-replay keeps one POSE_TDOA stream" || fail "POSE_TDOA lines $n_a vs $n_c"
 
 # Damaged inputs.
 head -c 100000 "$WORK/in.lcm" >"$WORK/cut.lcm"

@@ -4,7 +4,9 @@
 
 #include <gtest/gtest.h>
 
+#include <ips/clock_t.hpp>
 #include <ips/pose_t.hpp>
+#include <set>
 #include <ips/site_t.hpp>
 
 #include "drivers/sim/simulator.hpp"
@@ -49,6 +51,40 @@ TEST(ReplayHost, InputsPassThroughAndEstimatesFollowTheirInput) {
   EXPECT_NEAR(poses, 200, 2);  // 10 Hz for 20 s
 }
 
+// The TDoA estimator is hosted too: the lab's D1..D4 give POSE_TDOA after a UWB_RX report and a
+// CLOCK per anchor after each sync; --only uwb_tdoa hosts it alone.
+TEST(ReplayHost, HostsTheTdoaEstimator) {
+  for (bool alone : {false, true}) {
+    ReplayOptions ro;
+    if (alone) ro.only = {"uwb_tdoa"};
+    auto out = replay(ro);
+    int poses = 0, clocks = 0, uwb_poses = 0;
+    std::set<std::string> clock_anchors;
+    for (size_t i = 0; i < out.size(); ++i) {
+      if (out[i].channel == "POSE_UWB") ++uwb_poses;
+      if (out[i].channel == "CLOCK") {
+        ++clocks;
+        clock_t c;
+        ASSERT_GT(c.decode(out[i].data.data(), 0, static_cast<int>(out[i].data.size())), 0);
+        clock_anchors.insert(c.anchor_id);
+        EXPECT_EQ(c.master_id, "D1");
+      }
+      if (out[i].channel != "POSE_TDOA") continue;
+      ++poses;
+      EXPECT_EQ(out[i - 1].channel, "UWB_RX");
+      EXPECT_EQ(out[i - 1].timestamp, out[i].timestamp);
+      pose_t p;
+      ASSERT_GT(p.decode(out[i].data.data(), 0, static_cast<int>(out[i].data.size())), 0);
+      EXPECT_EQ(p.source, "uwb_tdoa");
+    }
+    EXPECT_GT(poses, 100) << alone;  // 10 Hz blinks for 20 s, once the clocks are synchronised
+    EXPECT_GT(clocks, 10) << alone;  // a sync every 2 s
+    // Every anchor, the master's own (offset and rate 0) included.
+    EXPECT_EQ(clock_anchors, (std::set<std::string>{"D1", "D2", "D3", "D4"})) << alone;
+    EXPECT_EQ(uwb_poses > 0, !alone);
+  }
+}
+
 TEST(ReplayHost, SameEventsSameBytes) { EXPECT_EQ(replay({}), replay({})); }
 
 TEST(ReplayHost, RegeneratedChannelsAreDroppedUnlessKept) {
@@ -77,7 +113,7 @@ TEST(ReplayHost, OnlyNamesKnownEstimators) {
     ReplayHost(ro, CommonOptions{}, [](auto&&...) {});
     FAIL();
   } catch (const ConfigError& e) {
-    EXPECT_STREQ(e.what(), "--only: unknown estimator 'teleport' (uwb_twr)");
+    EXPECT_STREQ(e.what(), "--only: unknown estimator 'teleport' (uwb_twr, uwb_tdoa)");
   }
 }
 
