@@ -3,6 +3,8 @@
 // state [position; velocity], white-acceleration process noise. The motion model of the UWB
 // trackers (ips-uwb-twr, ips-uwb-tdoa); their measurement models live beside them (models/).
 #include <cmath>
+#include <ips/pose_t.hpp>
+#include <limits>
 
 #include "core/ekf.hpp"
 
@@ -36,5 +38,21 @@ struct CvFilter {
     P.template bottomRightCorner<D, D>() = Pvv;
   }
 };
+
+// The filter's state into a pose: position (the third axis at height_m in 2D), velocity (0
+// vertically in 2D), position covariance, and heading (NaN below 0.2 m/s, where it is noise).
+template <int D>
+void fill_pose_from_cv(const CvFilter<D>& f, double height_m, pose_t& p) {
+  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+  cov.topLeftCorner<D, D>() = f.P.template topLeftCorner<D, D>();
+  for (int k = 0; k < 3; ++k) {
+    p.position[k] = k < D ? f.x(k) : height_m;
+    p.velocity[k] = k < D ? f.x(D + k) : 0.0;
+    for (int j = 0; j < 3; ++j) p.position_cov[3 * k + j] = cov(k, j);
+  }
+  const double speed = std::hypot(f.x(D), f.x(D + 1));
+  p.heading_rad = speed > 0.2 ? std::atan2(f.x(D + 1), f.x(D))
+                              : std::numeric_limits<double>::quiet_NaN();
+}
 
 }  // namespace ips

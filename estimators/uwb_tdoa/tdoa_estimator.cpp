@@ -490,15 +490,7 @@ void TdoaEstimator::publish(Track& t, const CvFilter<D>& f, const std::string& t
   p.utime = now;
   p.source = source_;
   p.tag_id = tag_id;
-  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
-  cov.topLeftCorner<D, D>() = f.P.template topLeftCorner<D, D>();
-  for (int k = 0; k < 3; ++k) {
-    p.position[k] = k < D ? f.x(k) : t.height_m;
-    p.velocity[k] = k < D ? f.x(D + k) : 0.0;
-    for (int j = 0; j < 3; ++j) p.position_cov[3 * k + j] = cov(k, j);
-  }
-  const double speed = std::hypot(f.x(D), f.x(D + 1));
-  p.heading_rad = speed > 0.2 ? std::atan2(f.x(D + 1), f.x(D)) : kNaN;
+  fill_pose_from_cv<D>(f, t.height_m, p);
   p.num_used = t.used_since_publish;
   p.residual_m =
       t.used_since_publish > 0 ? std::sqrt(t.sq_innov_since_publish / t.used_since_publish) : kNaN;
