@@ -2,7 +2,8 @@
 // the rest is decoded the way the node runtime decodes it (decode_message). UWB_RANGE bytes are
 // then fed as a sequence of length-prefixed messages into the TWR tracker (NaN, inf, huge and
 // negative numbers, unknown ids, time going backwards), which must publish only finite positions
-// and never crash.
+// and never crash; UWB_RX bytes likewise into the TDoA estimator (syncs and blinks with any
+// counters, ids and times), which must publish only finite positions and clock estimates.
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
@@ -20,6 +21,7 @@
 #include <stdexcept>
 
 #include "core/node.hpp"
+#include "estimators/uwb_tdoa/tdoa_estimator.hpp"
 #include "estimators/uwb_twr/twr_estimator.hpp"
 
 namespace {
@@ -30,6 +32,18 @@ const ips::Site& lab_site() {
       "  - {id: A3, position: [10, 8, 2.4]}\n  - {id: A4, position: [0, 8, 2.4]}\n"
       "tags:\n  - {id: T1, height_m: 1.2}\n  - {id: T3}\n",
       "fuzz-site");
+  return site;
+}
+
+const ips::Site& tdoa_site() {
+  static const ips::Site site = ips::parse_site_text(
+      "name: hall\nanchors:\n"
+      "  - {id: D1, kind: uwb_tdoa, position: [0.3, 0.3, 2.6]}\n"
+      "  - {id: D2, kind: uwb_tdoa, position: [9.7, 0.3, 2.6]}\n"
+      "  - {id: D3, kind: uwb_tdoa, position: [9.7, 7.7, 2.6]}\n"
+      "  - {id: D4, kind: uwb_tdoa, position: [0.3, 7.7, 2.6]}\n"
+      "tags:\n  - {id: T1, height_m: 1.2}\n  - {id: T3}\n",
+      "fuzz-tdoa-site");
   return site;
 }
 
@@ -56,13 +70,34 @@ void feed_tracker(const uint8_t* data, size_t size) {
     pos += 1 + len;
   }
 }
+
+void feed_tdoa(const uint8_t* data, size_t size) {
+  ips::uwb_tdoa::TdoaEstimator est(
+      [](const ips::pose_t& p) {
+        for (double v : p.position)
+          if (!std::isfinite(v)) throw std::logic_error("non-finite TDoA position published");
+      },
+      [](const ips::clock_t& c) {
+        if (!std::isfinite(c.offset_s) || !std::isfinite(c.rate_ppb))
+          throw std::logic_error("non-finite clock estimate published");
+      });
+  est.set_site(tdoa_site());
+  size_t pos = 0;
+  while (pos + 1 < size) {
+    const size_t len = std::min<size_t>(data[pos], size - pos - 1);
+    ips::uwb_rx_t m;
+    if (ips::decode_message(m, data + pos + 1, len)) est.on_rx(m);
+    pos += 1 + len;
+  }
+  est.flush();
+}
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (size < 1) return 0;
   const uint8_t* d = data + 1;
   const size_t n = size - 1;
-  switch (data[0] % 12) {
+  switch (data[0] % 13) {
     case 0: decode_one<ips::site_t>(d, n); break;
     case 1: decode_one<ips::pose_t>(d, n); break;
     case 2: decode_one<ips::uwb_rx_t>(d, n); break;
@@ -74,7 +109,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     case 8: decode_one<ips::altitude_t>(d, n); break;
     case 9: decode_one<ips::clock_t>(d, n); break;
     case 10: decode_one<ips::uwb_range_t>(d, n); break;
-    default: feed_tracker(d, n); break;
+    case 11: feed_tracker(d, n); break;
+    default: feed_tdoa(d, n); break;
   }
   return 0;
 }
