@@ -9,11 +9,12 @@
 #include "drivers/sim/simulator.hpp"
 #include "estimators/uwb_survey/anchor_survey.hpp"
 #include "estimators/uwb_survey/range_collector.hpp"
+#include "tests/estimators/simulated_inputs.hpp"
 
 namespace ips::uwb_survey {
 namespace {
 
-constexpr utime_t kStart = 1767225600000000;
+constexpr utime_t kStart = test::kSimStart;
 
 struct LabRun {
   SurveyResult result;
@@ -25,20 +26,12 @@ struct LabRun {
 LabRun survey_lab(const sim::Scenario& sc, uint64_t seed,
                   const std::vector<std::string>& order = {}, const CollectorOptions& copt = {},
                   const std::optional<Eigen::Vector3d>& known = std::nullopt) {
-  sim::Simulator simulator(sc, seed, kStart);
   RangeCollector c(copt);
-  sim::SimEvent e;
-  while (simulator.next(e)) {
-    if (e.kind == "SITE") {
-      site_t m;
-      m.decode(e.data.data(), 0, static_cast<int>(e.data.size()));
-      c.set_site(site_from_msg(m));
-    } else if (e.kind == "UWB_RANGE") {
-      uwb_range_t m;
-      m.decode(e.data.data(), 0, static_cast<int>(e.data.size()));
-      c.add(m, utime_to_s(e.utime - kStart));
-    }
-  }
+  test::run_simulated(sc, seed,
+                      {.site = [&](const site_t& m) { c.set_site(site_from_msg(m)); },
+                       .uwb_range = [&](const uwb_range_t& m) {
+                         c.add(m, utime_to_s(m.utime - kStart));
+                       }});
   EXPECT_TRUE(c.has_site());
   return {survey_anchors(c.input(survey_order(c.site(), order), known)), c.site(), c.stats()};
 }

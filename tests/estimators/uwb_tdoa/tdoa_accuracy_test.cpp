@@ -16,11 +16,12 @@
 #include "estimators/uwb_tdoa/counter_wrap.hpp"
 #include "estimators/uwb_tdoa/tdoa_estimator.hpp"
 #include "loggers/eval/evaluation.hpp"
+#include "tests/estimators/simulated_inputs.hpp"
 
 namespace ips::uwb_tdoa {
 namespace {
 
-constexpr utime_t kStart = 1767225600000000;
+constexpr utime_t kStart = test::kSimStart;
 constexpr double kHz = 63.8976e9;
 constexpr double kWrapS = static_cast<double>(kCounterModulus) / kHz;
 
@@ -79,19 +80,9 @@ RunResult run(const sim::Scenario& scenario, uint64_t seed, double duration_s,
   Site site = sc.site;
   if (!params.empty()) site.estimators = parse_yaml_text("uwb_tdoa: " + params, "params");
   est.set_site(site);
-  sim::Simulator simulator(sc, seed, kStart);
-  sim::SimEvent e;
-  while (simulator.next(e)) {
-    if (e.kind == "TRUTH") {
-      pose_t m;
-      m.decode(e.data.data(), 0, static_cast<int>(e.data.size()));
-      ev.add_truth(m);
-    } else if (e.kind == "UWB_RX") {
-      uwb_rx_t m;
-      m.decode(e.data.data(), 0, static_cast<int>(e.data.size()));
-      est.on_rx(m);
-    }
-  }
+  test::run_simulated(sc, seed,
+                      {.truth = [&](const pose_t& m) { ev.add_truth(m); },
+                       .uwb_rx = [&](const uwb_rx_t& m) { est.on_rx(m); }});
   est.flush();
   auto rows = ev.rows();
   EXPECT_EQ(rows.size(), 1u);
@@ -235,19 +226,9 @@ TEST(TdoaAccuracy, TdoaHallThreeTags) {
   TdoaEstimator est([&](const pose_t& p) { ev.add_estimate("POSE_TDOA", p); },
                     [](const clock_t&) {});
   est.set_site(sc.site);
-  sim::Simulator simulator(sc, 1, kStart);
-  sim::SimEvent e;
-  while (simulator.next(e)) {
-    if (e.kind == "TRUTH") {
-      pose_t m;
-      m.decode(e.data.data(), 0, static_cast<int>(e.data.size()));
-      ev.add_truth(m);
-    } else if (e.kind == "UWB_RX") {
-      uwb_rx_t m;
-      m.decode(e.data.data(), 0, static_cast<int>(e.data.size()));
-      est.on_rx(m);
-    }
-  }
+  test::run_simulated(sc, 1,
+                      {.truth = [&](const pose_t& m) { ev.add_truth(m); },
+                       .uwb_rx = [&](const uwb_rx_t& m) { est.on_rx(m); }});
   const auto rows = ev.rows();
   ASSERT_EQ(rows.size(), 3u);
   for (const auto& row : rows) {

@@ -15,6 +15,7 @@
 
 #include "core/multilateration.hpp"
 #include "drivers/sim/simulator.hpp"
+#include "tests/estimators/simulated_inputs.hpp"
 #include "estimators/uwb_twr/twr_estimator.hpp"
 #include "loggers/eval/evaluation.hpp"
 
@@ -28,7 +29,6 @@ struct CorridorRun {
 
 CorridorRun run(const std::string& scenario, uint64_t seed) {
   sim::Scenario sc = sim::load_scenario(scenario);
-  sim::Simulator simulator(sc, seed, 1767225600000000);
   eval::Evaluator ev;
   TwrEstimator est([&](const pose_t& p) { ev.add_estimate("POSE_UWB", p); });
   est.set_site(sc.site);
@@ -49,23 +49,16 @@ CorridorRun run(const std::string& scenario, uint64_t seed) {
     for (int k = 0; k < 3; ++k) p.position[k] = res.position(k);
     ev.add_estimate("FOY", p);
   };
-  sim::SimEvent e;
-  while (simulator.next(e)) {
-    if (e.kind == "TRUTH") {
-      pose_t m;
-      m.decode(e.data.data(), 0, static_cast<int>(e.data.size()));
-      ev.add_truth(m);
-    } else if (e.kind == "UWB_RANGE") {
-      uwb_range_t m;
-      m.decode(e.data.data(), 0, static_cast<int>(e.data.size()));
-      est.on_range(m);
-      if (m.utime >= epoch_end) {
-        if (epoch_end != 0) solve_epoch(epoch_end);
-        epoch_end = m.utime + 500'000;
-      }
-      epoch[m.anchor_id] = m.range_m;
-    }
-  }
+  test::run_simulated(sc, seed,
+                      {.truth = [&](const pose_t& m) { ev.add_truth(m); },
+                       .uwb_range = [&](const uwb_range_t& m) {
+                         est.on_range(m);
+                         if (m.utime >= epoch_end) {
+                           if (epoch_end != 0) solve_epoch(epoch_end);
+                           epoch_end = m.utime + 500'000;
+                         }
+                         epoch[m.anchor_id] = m.range_m;
+                       }});
   CorridorRun out;
   for (const auto& row : ev.rows()) (row.channel == "FOY" ? out.foy : out.twr) = row;
   return out;

@@ -10,6 +10,7 @@
 #include <ips/uwb_range_t.hpp>
 
 #include "drivers/sim/simulator.hpp"
+#include "tests/estimators/simulated_inputs.hpp"
 #include "loggers/eval/evaluation.hpp"
 
 namespace ips::uwb_twr {
@@ -23,25 +24,14 @@ struct RunResult {
 RunResult run_lab(uint64_t seed, double duration_s, const std::string& scenario = "lab") {
   sim::Scenario sc = sim::load_scenario(scenario);
   sc.duration_s = duration_s;
-  sim::Simulator simulator(sc, seed, 1767225600000000);
   eval::Evaluator ev;
   TwrEstimator est([&](const pose_t& p) { ev.add_estimate("POSE_UWB", p); });
-  sim::SimEvent e;
-  while (simulator.next(e)) {
-    if (e.kind == "SITE" && !est.has_site()) {
-      site_t m;
-      m.decode(e.data.data(), 0, static_cast<int>(e.data.size()));
-      est.set_site(site_from_msg(m));
-    } else if (e.kind == "TRUTH") {
-      pose_t m;
-      m.decode(e.data.data(), 0, static_cast<int>(e.data.size()));
-      ev.add_truth(m);
-    } else if (e.kind == "UWB_RANGE") {
-      uwb_range_t m;
-      m.decode(e.data.data(), 0, static_cast<int>(e.data.size()));
-      est.on_range(m);
-    }
-  }
+  test::run_simulated(sc, seed,
+                      {.site = [&](const site_t& m) {
+                         if (!est.has_site()) est.set_site(site_from_msg(m));
+                       },
+                       .truth = [&](const pose_t& m) { ev.add_truth(m); },
+                       .uwb_range = [&](const uwb_range_t& m) { est.on_range(m); }});
   auto rows = ev.rows();
   EXPECT_EQ(rows.size(), 1u);
   return {rows.empty() ? eval::ErrorRow{} : rows[0], est.stats()};
@@ -75,22 +65,12 @@ TEST(TwrEstimatorLab, TenTagsAtOnceEachMeetTheBound) {
   sim::Scenario sc = sim::load_scenario("lab");
   sc.duration_s = 30;
   sim::replicate_walkers(sc, 10);
-  sim::Simulator simulator(sc, 1, 1767225600000000);
   eval::Evaluator ev;
   TwrEstimator est([&](const pose_t& p) { ev.add_estimate("POSE_UWB", p); });
-  est.set_site(simulator.scenario().site);
-  sim::SimEvent e;
-  while (simulator.next(e)) {
-    if (e.kind == "TRUTH") {
-      pose_t m;
-      m.decode(e.data.data(), 0, static_cast<int>(e.data.size()));
-      ev.add_truth(m);
-    } else if (e.kind == "UWB_RANGE") {
-      uwb_range_t m;
-      m.decode(e.data.data(), 0, static_cast<int>(e.data.size()));
-      est.on_range(m);
-    }
-  }
+  est.set_site(sc.site);
+  test::run_simulated(sc, 1,
+                      {.truth = [&](const pose_t& m) { ev.add_truth(m); },
+                       .uwb_range = [&](const uwb_range_t& m) { est.on_range(m); }});
   const auto rows = ev.rows();
   ASSERT_EQ(rows.size(), 10u);
   double worst = 0;

@@ -1,0 +1,48 @@
+#pragma once
+// The estimator tests' in-process loop: a scenario through the simulator, each message of the
+// kinds a test asks for decoded and handed to its handler (SITE, TRUTH, UWB_RANGE, UWB_RX).
+#include <gtest/gtest.h>
+
+#include <functional>
+#include <ips/pose_t.hpp>
+#include <ips/site_t.hpp>
+#include <ips/uwb_range_t.hpp>
+#include <ips/uwb_rx_t.hpp>
+
+#include "drivers/sim/simulator.hpp"
+
+namespace ips::test {
+
+inline constexpr utime_t kSimStart = 1767225600000000;  // 2026-01-01T00:00:00Z
+
+struct SimHandlers {
+  std::function<void(const site_t&)> site = nullptr;
+  std::function<void(const pose_t&)> truth = nullptr;
+  std::function<void(const uwb_range_t&)> uwb_range = nullptr;
+  std::function<void(const uwb_rx_t&)> uwb_rx = nullptr;
+};
+
+template <class Msg>
+void hand_over(const sim::SimEvent& e, const std::function<void(const Msg&)>& handler) {
+  if (!handler) return;
+  Msg m;
+  if (m.decode(e.data.data(), 0, static_cast<int>(e.data.size())) !=
+      static_cast<int>(e.data.size())) {
+    ADD_FAILURE() << "a simulated " << e.kind << " does not decode";
+    return;
+  }
+  handler(m);
+}
+
+inline void run_simulated(const sim::Scenario& sc, uint64_t seed, const SimHandlers& h) {
+  sim::Simulator simulator(sc, seed, kSimStart);
+  sim::SimEvent e;
+  while (simulator.next(e)) {
+    if (e.kind == "SITE") hand_over(e, h.site);
+    else if (e.kind == "TRUTH") hand_over(e, h.truth);
+    else if (e.kind == "UWB_RANGE") hand_over(e, h.uwb_range);
+    else if (e.kind == "UWB_RX") hand_over(e, h.uwb_rx);
+  }
+}
+
+}  // namespace ips::test
