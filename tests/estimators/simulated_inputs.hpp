@@ -1,9 +1,11 @@
 #pragma once
 // The estimator tests' in-process loop: a scenario through the simulator, each message of the
-// kinds a test asks for decoded and handed to its handler (SITE, TRUTH, UWB_RANGE, UWB_RX).
+// kinds a test asks for decoded and handed to its handler (SITE, TRUTH, UWB_RANGE, UWB_RX,
+// BLE_AOA).
 #include <gtest/gtest.h>
 
 #include <functional>
+#include <ips/ble_aoa_t.hpp>
 #include <ips/pose_t.hpp>
 #include <ips/site_t.hpp>
 #include <ips/uwb_range_t.hpp>
@@ -20,6 +22,7 @@ struct SimHandlers {
   std::function<void(const pose_t&)> truth = nullptr;
   std::function<void(const uwb_range_t&)> uwb_range = nullptr;
   std::function<void(const uwb_rx_t&)> uwb_rx = nullptr;
+  std::function<void(const ble_aoa_t&)> ble_aoa = nullptr;
 };
 
 template <class Msg>
@@ -42,6 +45,7 @@ inline void run_simulated(const sim::Scenario& sc, uint64_t seed, const SimHandl
     else if (e.kind == "TRUTH") hand_over(e, h.truth);
     else if (e.kind == "UWB_RANGE") hand_over(e, h.uwb_range);
     else if (e.kind == "UWB_RX") hand_over(e, h.uwb_rx);
+    else if (e.kind == "BLE_AOA") hand_over(e, h.ble_aoa);
   }
 }
 
