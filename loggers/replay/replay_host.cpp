@@ -1,6 +1,7 @@
 #include "loggers/replay/replay_host.hpp"
 
 #include <algorithm>
+#include <ips/ble_aoa_t.hpp>
 #include <ips/site_t.hpp>
 #include <ips/uwb_range_t.hpp>
 #include <ips/uwb_rx_t.hpp>
@@ -13,9 +14,10 @@ namespace ips::replay {
 namespace {
 constexpr const char* kUwbTwr = "uwb_twr";
 constexpr const char* kUwbTdoa = "uwb_tdoa";
+constexpr const char* kAoa = "aoa";
 }
 
-std::vector<std::string> ReplayHost::available() { return {kUwbTwr, kUwbTdoa}; }
+std::vector<std::string> ReplayHost::available() { return {kUwbTwr, kUwbTdoa, kAoa}; }
 
 ReplayHost::ReplayHost(const ReplayOptions& opts, const CommonOptions& channels, Sink sink)
     : channels_(channels), sink_(std::move(sink)), opts_(opts) {
@@ -42,6 +44,11 @@ ReplayHost::ReplayHost(const ReplayOptions& opts, const CommonOptions& channels,
     produced_channels_.insert(pose_out);
     produced_channels_.insert(clock_out);
   }
+  if (wanted(kAoa)) {
+    const std::string out = channels_.channel(channel::kPoseAoa);
+    aoa_ = std::make_unique<aoa::AoaEstimator>([this, out](const pose_t& p) { emit(out, p); });
+    produced_channels_.insert(out);
+  }
   if (!opts_.site_path.empty()) apply_site(load_site_file(opts_.site_path));
 }
 
@@ -49,6 +56,7 @@ std::vector<std::string> ReplayHost::hosted() const {
   std::vector<std::string> names;
   if (twr_) names.push_back(kUwbTwr);
   if (tdoa_) names.push_back(kUwbTdoa);
+  if (aoa_) names.push_back(kAoa);
   return names;
 }
 
@@ -63,10 +71,12 @@ void ReplayHost::emit(const std::string& channel, const Msg& msg) {
 void ReplayHost::apply_site(const Site& site) {
   if (twr_) twr_->set_site(site);
   if (tdoa_) tdoa_->set_site(site);
+  if (aoa_) aoa_->set_site(site);
 }
 
 void ReplayHost::finish() {
   if (tdoa_) tdoa_->flush();
+  if (aoa_) aoa_->finish();
 }
 
 void ReplayHost::process(const std::string& channel, int64_t timestamp, const uint8_t* data,
@@ -107,6 +117,13 @@ void ReplayHost::process(const std::string& channel, int64_t timestamp, const ui
       return;
     }
     tdoa_->on_rx(m);
+  } else if (aoa_ && channel == channels_.channel(channel::kBleAoa)) {
+    ble_aoa_t m;
+    if (!decode_message(m, data, size)) {
+      ++stats_.undecodable;
+      return;
+    }
+    aoa_->on_event(m);
   }
 }
 

@@ -12,6 +12,7 @@
 
 #include "core/cli.hpp"
 #include "core/site.hpp"
+#include "estimators/aoa/aoa_estimator.hpp"
 #include "estimators/uwb_tdoa/tdoa_estimator.hpp"
 #include "estimators/uwb_twr/twr_estimator.hpp"
 
@@ -42,7 +43,8 @@ class ReplayHost {
   // One log event (channel, log timestamp, payload).
   void process(const std::string& channel, int64_t timestamp, const uint8_t* data, size_t size);
   // At the end of the log: estimators that hold inputs back (the TDoA estimator waits for a
-  // blink's last report) emit what they hold, stamped with the last event's time.
+  // blink's last report, the AoA estimator for an epoch's window to pass) emit what they hold,
+  // stamped with the last event's time.
   void finish();
 
   const ReplayStats& stats() const { return stats_; }
@@ -65,6 +67,7 @@ class ReplayHost {
   std::string last_site_yaml_;
   std::unique_ptr<uwb_twr::TwrEstimator> twr_;
   std::unique_ptr<uwb_tdoa::TdoaEstimator> tdoa_;
+  std::unique_ptr<aoa::AoaEstimator> aoa_;
 };
 
 }  // namespace ips::replay

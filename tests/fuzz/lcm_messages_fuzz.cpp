@@ -21,6 +21,7 @@
 #include <stdexcept>
 
 #include "core/node.hpp"
+#include "estimators/aoa/aoa_estimator.hpp"
 #include "estimators/uwb_tdoa/tdoa_estimator.hpp"
 #include "estimators/uwb_twr/twr_estimator.hpp"
 
@@ -44,6 +45,21 @@ const ips::Site& tdoa_site() {
       "  - {id: D4, kind: uwb_tdoa, position: [0.3, 7.7, 2.6]}\n"
       "tags:\n  - {id: T1, height_m: 1.2}\n  - {id: T3}\n",
       "fuzz-tdoa-site");
+  return site;
+}
+
+// The hall of source 000 with one calibration polynomial, so corrections are exercised too.
+const ips::Site& aoa_site() {
+  static const ips::Site site = ips::parse_site_text(
+      "name: aoa-hall\nanchors:\n"
+      "  - {id: A1, kind: ble_aoa, position: [0, 0, 1.683], orientation_deg: [0, 0, 60.73]}\n"
+      "  - {id: A2, kind: ble_aoa, position: [4.552, -0.119, 1.627], orientation_deg: [0, 0, 119.27]}\n"
+      "  - {id: A3, kind: ble_aoa, position: [-0.105, 8.126, 1.723], orientation_deg: [0, 0, -60.73]}\n"
+      "  - {id: A4, kind: ble_aoa, position: [4.651, 8.103, 1.681], orientation_deg: [0, 0, -119.27]}\n"
+      "tags:\n  - {id: T1, height_m: 1.528}\n"
+      "estimators:\n  aoa:\n    calibration:\n"
+      "      A2: {azimuth: {polynomial: [-0.8, 1.02, 0.0008, -0.000046], valid_deg: [-52, 62]}}\n",
+      "fuzz-aoa-site");
   return site;
 }
 
@@ -91,13 +107,33 @@ void feed_tdoa(const uint8_t* data, size_t size) {
   }
   est.flush();
 }
+
+// A sequence of ble_aoa_t through the AoA estimator, once as the EKF and once per epoch (LM).
+void feed_aoa(const uint8_t* data, size_t size) {
+  for (bool ekf : {true, false}) {
+    ips::aoa::AoaEstimator est([](const ips::pose_t& p) {
+      for (double v : p.position)
+        if (!std::isfinite(v)) throw std::logic_error("non-finite AoA position published");
+    });
+    if (!ekf) est.override_method(ips::aoa::AoaMethod::kPerEpoch);
+    est.set_site(aoa_site());
+    size_t pos = 0;
+    while (pos + 1 < size) {
+      const size_t len = std::min<size_t>(data[pos], size - pos - 1);
+      ips::ble_aoa_t m;
+      if (ips::decode_message(m, data + pos + 1, len)) est.on_event(m);
+      pos += 1 + len;
+    }
+    est.finish();
+  }
+}
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (size < 1) return 0;
   const uint8_t* d = data + 1;
   const size_t n = size - 1;
-  switch (data[0] % 13) {
+  switch (data[0] % 14) {
     case 0: decode_one<ips::site_t>(d, n); break;
     case 1: decode_one<ips::pose_t>(d, n); break;
     case 2: decode_one<ips::uwb_rx_t>(d, n); break;
@@ -110,7 +146,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     case 9: decode_one<ips::clock_t>(d, n); break;
     case 10: decode_one<ips::uwb_range_t>(d, n); break;
     case 11: feed_tracker(d, n); break;
-    default: feed_tdoa(d, n); break;
+    case 12: feed_tdoa(d, n); break;
+    default: feed_aoa(d, n); break;
   }
   return 0;
 }

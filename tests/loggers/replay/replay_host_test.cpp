@@ -22,8 +22,9 @@ struct Out {
 };
 
 std::vector<Out> replay(const ReplayOptions& ro, double duration_s = 20,
-                        const std::vector<Out>& extra_inputs = {}) {
-  sim::Scenario sc = sim::load_scenario("lab");
+                        const std::vector<Out>& extra_inputs = {},
+                        const std::string& scenario = "lab") {
+  sim::Scenario sc = sim::load_scenario(scenario);
   sc.duration_s = duration_s;
   sim::Simulator sim(sc, 1, 1767225600000000);
   std::vector<Out> out;
@@ -32,6 +33,7 @@ std::vector<Out> replay(const ReplayOptions& ro, double duration_s = 20,
   for (const auto& e : extra_inputs) host.process(e.channel, e.timestamp, e.data.data(), e.data.size());
   sim::SimEvent e;
   while (sim.next(e)) host.process(e.kind, e.utime, e.data.data(), e.data.size());
+  host.finish();
   return out;
 }
 
@@ -85,6 +87,33 @@ TEST(ReplayHost, HostsTheTdoaEstimator) {
   }
 }
 
+// The AoA estimator: on aoa-hall, POSE_AOA after the BLE_AOA event that closed an epoch (the
+// first of the next advertisement), stamped with its log time; the last epoch comes out at
+// finish(), stamped with the last event's time.
+TEST(ReplayHost, HostsTheAoaEstimator) {
+  ReplayOptions ro;
+  ro.only = {"aoa"};
+  const auto out = replay(ro, 10, {}, "aoa-hall");
+  int poses = 0;
+  int64_t last_input = 0;
+  for (size_t i = 0; i < out.size(); ++i) {
+    if (out[i].channel != "POSE_AOA") {
+      last_input = out[i].timestamp;
+      continue;
+    }
+    ++poses;
+    EXPECT_EQ(out[i].timestamp, last_input);
+    pose_t p;
+    ASSERT_GT(p.decode(out[i].data.data(), 0, static_cast<int>(out[i].data.size())), 0);
+    EXPECT_EQ(p.source, "aoa");
+    EXPECT_EQ(p.tag_id, "T1");
+    EXPECT_LE(p.utime, out[i].timestamp);  // the epoch's time, before the event that closed it
+  }
+  EXPECT_NEAR(poses, 100, 1);  // 10 advertisements a second for 10 s
+  EXPECT_EQ(out.back().channel, "POSE_AOA");  // the last epoch, flushed at the end
+  EXPECT_EQ(replay(ro, 10, {}, "aoa-hall"), out);
+}
+
 TEST(ReplayHost, SameEventsSameBytes) { EXPECT_EQ(replay({}), replay({})); }
 
 TEST(ReplayHost, RegeneratedChannelsAreDroppedUnlessKept) {
@@ -113,7 +142,7 @@ TEST(ReplayHost, OnlyNamesKnownEstimators) {
     ReplayHost(ro, CommonOptions{}, [](auto&&...) {});
     FAIL();
   } catch (const ConfigError& e) {
-    EXPECT_STREQ(e.what(), "--only: unknown estimator 'teleport' (uwb_twr, uwb_tdoa)");
+    EXPECT_STREQ(e.what(), "--only: unknown estimator 'teleport' (uwb_twr, uwb_tdoa, aoa)");
   }
 }
 
