@@ -20,6 +20,17 @@ struct PoseTally {
     ++used;
     sq_residual_m2 += residual_m * residual_m;
   }
+  void add_many(int n, double sum_sq_residual_m2) {
+    used += n;
+    sq_residual_m2 += sum_sq_residual_m2;
+  }
+  // A track (re)started from a fix of n measurements with this residual RMS: what came before
+  // it is not counted; a restart after a published pose is flagged REINITIALISED.
+  void restart(int n, double rms_residual_m) {
+    reinitialised = last_publish_utime != 0;
+    used = n;
+    sq_residual_m2 = rms_residual_m * rms_residual_m * n;
+  }
   // At most one pose per period_s (0: every time).
   bool due(utime_t now, double period_s) const {
     return last_publish_utime == 0 || now - last_publish_utime >= s_to_utime(period_s);

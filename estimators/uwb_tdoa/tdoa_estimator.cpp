@@ -14,7 +14,6 @@ namespace ips::uwb_tdoa {
 
 namespace {
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 // Anchors of one blink used at most (the nearest ones): the reference and kMaxTdoaPerEpoch more.
 constexpr size_t kMaxArrivals = kMaxTdoaPerEpoch + 1;
 
@@ -355,14 +354,12 @@ bool TdoaEstimator::try_initialise(Track& t, const Blink& b, const std::vector<A
   else
     init(t.f3, 3);
   t.initialised = true;
-  t.reinitialised = t.last_publish_utime != 0;
   ++stats_.initialisations;
   stats_.tdoa_used += static_cast<int64_t>(n);
   t.filter_utime = b.utime;
   t.last_accept_utime = b.utime;
   t.consecutive_rejections = 0;
-  t.used_since_publish = static_cast<int>(n);
-  t.sq_innov_since_publish = fix.residual_rms_m * fix.residual_rms_m * static_cast<double>(n);
+  t.tally.restart(static_cast<int>(n), fix.residual_rms_m);
   return true;
 }
 
@@ -476,32 +473,19 @@ void TdoaEstimator::update(Track& t, CvFilter<D>& f, const Blink& b, std::vector
   stats_.tdoa_used += used;
   t.consecutive_rejections = 0;
   t.last_accept_utime = std::max(t.last_accept_utime, b.utime);
-  t.used_since_publish += used;
-  t.sq_innov_since_publish += sq;
+  t.tally.add_many(static_cast<int>(used), sq);
 }
 
 template <int D>
 void TdoaEstimator::publish(Track& t, const CvFilter<D>& f, const std::string& tag_id,
                             utime_t now) {
-  if (t.last_publish_utime != 0 &&
-      now - t.last_publish_utime < s_to_utime(params_.publish_period_s))
-    return;
+  if (!t.tally.due(now, params_.publish_period_s)) return;
   pose_t p;
   p.utime = now;
   p.source = source_;
   p.tag_id = tag_id;
   fill_pose_from_cv<D>(f, t.height_m, p);
-  p.num_used = t.used_since_publish;
-  p.residual_m =
-      t.used_since_publish > 0 ? std::sqrt(t.sq_innov_since_publish / t.used_since_publish) : kNaN;
-  p.status = pose_t::STATUS_OK;
-  if (D == 2) p.status |= pose_t::STATUS_2D;
-  if (t.used_since_publish == 0) p.status |= pose_t::STATUS_COASTING;
-  if (t.reinitialised) p.status |= pose_t::STATUS_REINITIALISED;
-  t.reinitialised = false;
-  t.used_since_publish = 0;
-  t.sq_innov_since_publish = 0;
-  t.last_publish_utime = now;
+  t.tally.finish(p, D == 2, now);
   ++stats_.poses_out;
   pose_sink_(p);
 }

@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "core/cv_filter.hpp"
+#include "core/pose_tally.hpp"
 #include "core/site.hpp"
 #include "estimators/uwb_tdoa/clock_sync.hpp"
 
@@ -111,11 +112,8 @@ class TdoaEstimator {
     utime_t filter_utime = 0;
     utime_t newest_utime = 0;
     utime_t last_accept_utime = 0;
-    utime_t last_publish_utime = 0;
     int consecutive_rejections = 0;
-    int used_since_publish = 0;
-    double sq_innov_since_publish = 0;
-    bool reinitialised = false;
+    PoseTally tally;  // since the last pose published
     bool open = false;  // a blink is gathering reports
     Blink blink;
     bool has_closed = false;

@@ -9,10 +9,6 @@
 
 namespace ips::uwb_twr {
 
-namespace {
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-}
-
 TwrParams parse_twr_params(const YamlField& s) {
   TwrParams p;
   if (!s.defined()) return p;
@@ -192,8 +188,7 @@ void TwrEstimator::update(Track& t, CvFilter<D>& f, size_t anchor_index, const u
   ++stats_.ranges_used;
   t.consecutive_rejections = 0;
   t.last_accept_utime = std::max(t.last_accept_utime, m.utime);
-  ++t.used_since_publish;
-  t.sq_innov_since_publish += r.innovation_m * r.innovation_m;
+  t.tally.add(r.innovation_m);
 }
 
 bool TwrEstimator::try_initialise(Track& t, utime_t now, bool only_if_elsewhere) {
@@ -263,38 +258,24 @@ bool TwrEstimator::try_initialise(Track& t, utime_t now, bool only_if_elsewhere)
   else
     init(t.f3);
   t.initialised = true;
-  t.reinitialised = t.last_publish_utime != 0;
   ++stats_.initialisations;
   t.filter_utime = now;
   t.last_accept_utime = now;
   t.consecutive_rejections = 0;
-  t.used_since_publish = static_cast<int>(obs.size());
-  t.sq_innov_since_publish = res.residual_rms_m * res.residual_rms_m * static_cast<double>(obs.size());
+  t.tally.restart(static_cast<int>(obs.size()), res.residual_rms_m);
   std::fill(t.anchor_rejections.begin(), t.anchor_rejections.end(), 0);
   return true;
 }
 
 template <int D>
 void TwrEstimator::publish(Track& t, const CvFilter<D>& f, const std::string& tag_id, utime_t now) {
-  if (t.last_publish_utime != 0 && now - t.last_publish_utime < s_to_utime(params_.publish_period_s))
-    return;
+  if (!t.tally.due(now, params_.publish_period_s)) return;
   pose_t p;
   p.utime = now;
   p.source = source_;
   p.tag_id = tag_id;
   fill_pose_from_cv<D>(f, t.height_m, p);
-  p.num_used = t.used_since_publish;
-  p.residual_m = t.used_since_publish > 0
-                     ? std::sqrt(t.sq_innov_since_publish / t.used_since_publish)
-                     : kNaN;
-  p.status = pose_t::STATUS_OK;
-  if (D == 2) p.status |= pose_t::STATUS_2D;
-  if (t.used_since_publish == 0) p.status |= pose_t::STATUS_COASTING;
-  if (t.reinitialised) p.status |= pose_t::STATUS_REINITIALISED;
-  t.reinitialised = false;
-  t.used_since_publish = 0;
-  t.sq_innov_since_publish = 0;
-  t.last_publish_utime = now;
+  t.tally.finish(p, D == 2, now);
   ++stats_.poses_out;
   sink_(p);
 }

@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "core/multilateration.hpp"
+#include "core/pose_tally.hpp"
 #include "core/site.hpp"
 #include "core/cv_filter.hpp"
 #include "estimators/uwb_twr/models/uwb_range.hpp"
@@ -91,11 +92,8 @@ class TwrEstimator {
     utime_t filter_utime = 0;
     utime_t newest_utime = 0;  // newest range seen, the reference for "late"
     utime_t last_accept_utime = 0;
-    utime_t last_publish_utime = 0;
     int consecutive_rejections = 0;
-    int used_since_publish = 0;
-    double sq_innov_since_publish = 0;
-    bool reinitialised = false;
+    PoseTally tally;  // since the last pose published
     std::deque<Epoch> recent;  // for (re)initialisation
     utime_t first_utime = 0;  // the track's first range
     std::vector<int> anchor_rejections;  // consecutive gated ranges per site anchor
