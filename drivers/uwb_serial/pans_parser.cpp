@@ -2,7 +2,7 @@
 
 #include <cmath>
 
-#include "drivers/uwb_serial/device_text.hpp"
+#include "core/device_text.hpp"
 
 namespace ips::uwb_serial {
 

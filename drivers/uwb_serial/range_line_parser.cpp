@@ -2,7 +2,7 @@
 
 #include <array>
 
-#include "drivers/uwb_serial/device_text.hpp"
+#include "core/device_text.hpp"
 #include "drivers/uwb_serial/pans_parser.hpp"
 
 namespace ips::uwb_serial {

@@ -1,7 +1,8 @@
 #pragma once
-// Fields of the text lines UWB devices print: plain decimal numbers ("2.55", "-0.04", "98": the
-// whole field, an optional minus sign, digits with an optional decimal point; no exponent, no
-// '+', no spaces, no nan/inf), and a field quoted safely for a parse error's reason. Pure.
+// Fields of the text that devices print on serial ports (UWB tags and listeners, XPLR-AOA
+// anchors) and of capture files: plain decimal numbers ("2.55", "-68", "-30.5": the whole field,
+// an optional minus sign, digits with an optional decimal point; no exponent, no '+', no spaces,
+// no nan/inf), integers, and a field quoted safely for a parse error's reason. Pure.
 #include <charconv>
 #include <cmath>
 #include <cstdint>
@@ -9,7 +10,8 @@
 #include <string_view>
 #include <system_error>
 
-namespace ips::uwb_serial {
+namespace ips {
+
 
 // True and `value` set when `field` is a finite plain decimal number.
 inline bool parse_decimal(std::string_view field, double& value) {
@@ -43,17 +45,23 @@ inline bool parse_integer(std::string_view field, int64_t& value) {
   return true;
 }
 
-// 'field' for a reason text: at most 16 characters, anything but printable ASCII as '?', so
-// that a garbled line cannot put control bytes into health_t or a terminal.
-inline std::string quoted_field(std::string_view field) {
+inline bool printable_ascii(std::string_view s) {
+  for (char c : s)
+    if (c < 0x20 || c > 0x7e) return false;
+  return true;
+}
+
+// 'field' for a reason text: at most max_chars characters, anything but printable ASCII as '?',
+// so that a garbled line cannot put control bytes into health_t or a terminal.
+inline std::string quoted_field(std::string_view field, size_t max_chars = 24) {
   std::string out = "'";
-  for (size_t i = 0; i < field.size() && i < 16; ++i) {
+  for (size_t i = 0; i < field.size() && i < max_chars; ++i) {
     const char c = field[i];
     out += (c >= 0x20 && c < 0x7f) ? c : '?';
   }
-  if (field.size() > 16) out += "...";
+  if (field.size() > max_chars) out += "...";
   out += "'";
   return out;
 }
 
-}  // namespace ips::uwb_serial
+}  // namespace ips
