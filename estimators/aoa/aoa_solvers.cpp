@@ -1,7 +1,7 @@
 #include "estimators/aoa/aoa_solvers.hpp"
 
 #include <Eigen/Cholesky>
-#include <Eigen/LU>
+#include <Eigen/LU>  // inverse() and determinant() of fixed-size matrices
 #include <cmath>
 #include <limits>
 
@@ -77,6 +77,15 @@ Eigen::Vector3d line_direction(const BearingObservation& o) {
   return u.normalized();
 }
 
+// Small symmetric matrices (D <= 3): invertible when the determinant is clear of zero relative
+// to the matrix's scale (closed-form inverse, no pivoting decomposition).
+template <int D>
+bool invertible(const Mat<D>& A) {
+  const double scale = A.norm();
+  return std::isfinite(scale) && scale > 0 &&
+         std::abs(A.determinant()) > 1e-9 * std::pow(scale, D);
+}
+
 // Least squares on the bearing lines: minimises sum w_i |(I - u_i u_i') (p - a_i)|^2.
 template <int D>
 bool bearing_lines(const std::vector<const BearingObservation*>& obs, const Vec<D>* weights_from,
@@ -99,9 +108,8 @@ bool bearing_lines(const std::vector<const BearingObservation*>& obs, const Vec<
     b += w * proj * a;
   }
   // Parallel lines leave A singular: no crossing point.
-  Eigen::FullPivLU<Mat<D>> lu(A);
-  if (lu.rank() < D || std::abs(lu.determinant()) < 1e-9 * std::pow(A.norm(), D)) return false;
-  out = lu.solve(b);
+  if (!invertible<D>(A)) return false;
+  out = A.inverse() * b;
   return out.allFinite();
 }
 
@@ -202,14 +210,13 @@ AoaSolution solve(const std::vector<const BearingObservation*>& obs, const AoaSo
   const Rows r = rows_at<D>(obs, x, h);
   const MatX Jw = r.jacobian.array().colwise() / r.sigma.array();
   const Mat<D> info = Jw.transpose() * Jw;
-  Eigen::FullPivLU<Mat<D>> lu(info);
-  if (!r.valid || lu.rank() < D) {
+  if (!r.valid || !invertible<D>(info)) {
     if (s.failure.empty()) s.failure = "singular geometry at the solution";
     return s;
   }
   s.position = site_point<D>(x, h);
   s.covariance.setZero();
-  s.covariance.topLeftCorner<D, D>() = lu.inverse();
+  s.covariance.topLeftCorner<D, D>() = info.inverse();
   s.rms_residual_rad = std::sqrt(r.residual.squaredNorm() / static_cast<double>(r.residual.size()));
   s.rms_residual_m = std::sqrt((r.residual.array() * r.distance.array()).square().sum() /
                                static_cast<double>(r.residual.size()));
