@@ -6,6 +6,8 @@
 #include <fstream>
 #include <sstream>
 
+#include "core/text_escape.hpp"
+
 namespace ips {
 
 YamlField YamlField::operator[](const std::string& key) const {
@@ -137,6 +139,16 @@ std::string read_text_file(const std::string& path) {
   ss << in.rdbuf();
   if (in.bad()) throw ConfigError(path + ": cannot read: " + std::strerror(errno));
   return ss.str();
+}
+
+bool write_text_file(const std::string& path, const std::string& text, std::string& error) {
+  errno = 0;
+  std::ofstream out(path, std::ios::binary | std::ios::trunc);
+  if (out) out.write(text.data(), static_cast<std::streamsize>(text.size()));
+  if (out) out.close();
+  if (out) return true;
+  error = "cannot write '" + printable(path) + "': " + (errno ? std::strerror(errno) : "write failed");
+  return false;
 }
 
 YamlField load_yaml_file(const std::string& path) {

@@ -68,6 +68,9 @@ class YamlField {
 YamlField parse_yaml_text(const std::string& text, const std::string& origin);
 // Reads a whole file; failure gives ConfigError "path: cannot read: reason".
 std::string read_text_file(const std::string& path);
+// Writes `text` to `path`, replacing it. False with "cannot write 'PATH': reason" in `error`
+// (the path printable: escaped for a terminal).
+bool write_text_file(const std::string& path, const std::string& text, std::string& error);
 // Reads and parses a YAML file; unreadable files give ConfigError "path: cannot read: reason".
 YamlField load_yaml_file(const std::string& path);
 

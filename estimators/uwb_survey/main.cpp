@@ -345,13 +345,8 @@ int main(int argc, char** argv) {
       ips::print_fatal(kProgram, err.what());
       return 1;
     }
-    errno = 0;
-    std::ofstream out(out_path, std::ios::binary | std::ios::trunc);
-    if (out) out.write(text.data(), static_cast<std::streamsize>(text.size()));
-    if (out) out.close();
-    if (!out) {
-      ips::print_fatal(kProgram, "cannot write '" + ips::printable(out_path) +
-                                     "': " + (errno ? std::strerror(errno) : "write failed"));
+    if (std::string error; !ips::write_text_file(out_path, text, error)) {
+      ips::print_fatal(kProgram, error);
       return 1;
     }
     std::printf("wrote %s\n", ips::printable(out_path).c_str());
