@@ -1,4 +1,5 @@
-# ips-aoa (issue 7): model, solvers, estimator, accuracy on the simulated hall. Paths relative to tests/.
+# ips-aoa (issue 7): model, solvers, estimator, accuracy on the simulated hall (with and without
+# calibration), live over LCM. Paths relative to tests/.
 ips_unit_test(aoa_test
   estimators/aoa/aoa_solvers_test.cpp
   estimators/aoa/aoa_estimator_test.cpp
@@ -13,3 +14,6 @@ add_test(NAME aoa_live_netns
                  ${CMAKE_RUNTIME_OUTPUT_DIRECTORY})
 set_tests_properties(aoa_live_netns PROPERTIES LABELS integration TIMEOUT 120
                                                SKIP_RETURN_CODE 77 RESOURCE_LOCK cpu_heavy)
+
+# ips-aoa-calibrate: its fit, the simulated calibration capture, its command line.
+include(estimators/aoa/calibrate_tests.cmake)
