@@ -69,12 +69,27 @@ Site parse_site(const YamlField& root) {
   if (tags.defined() && !tags.is_sequence()) tags.fail("expected a list of tags");
   std::set<std::string> tag_ids;
   for (size_t i = 0; i < tags.size(); ++i) {
-    tags[i].check_keys({"id", "height_m"});
+    tags[i].check_keys({"id", "height_m", "start_position", "start_heading_deg"});
     Tag t;
     t.id = tags[i].required("id").as_string();
     if (t.id.empty()) tags[i]["id"].fail("must not be empty");
     if (!tag_ids.insert(t.id).second) tags[i]["id"].fail("duplicate tag id '" + t.id + "'");
     t.height_m = tags[i].get_double("height_m", std::numeric_limits<double>::quiet_NaN());
+    const YamlField start = tags[i]["start_position"];
+    if (start.defined()) {
+      if (start.size() == 2) {
+        t.start_position.head<2>() = start.as_vec2();
+        t.start_position.z() = std::isfinite(t.height_m) ? t.height_m : 0.0;
+      } else {
+        t.start_position = start.as_vec3();
+      }
+      if (t.start_position.cwiseAbs().maxCoeff() > 1e6) start.fail("must be within 1e6 m");
+    }
+    if (tags[i]["start_heading_deg"].defined()) {
+      const double h = tags[i]["start_heading_deg"].as_double();
+      if (!(std::abs(h) <= 360)) tags[i]["start_heading_deg"].fail("must be in [-360, 360]");
+      t.start_heading_rad = h * kDegToRad;
+    }
     site.tags.push_back(t);
   }
 

@@ -31,6 +31,11 @@ struct BaroStation {
 struct Tag {
   std::string id;
   double height_m = std::numeric_limits<double>::quiet_NaN();  // NaN: estimate height (3D)
+  // Where the tag starts, for the relative estimators (dead reckoning, INS): NaN when not given.
+  Eigen::Vector3d start_position =
+      Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
+  double start_heading_rad = std::numeric_limits<double>::quiet_NaN();  // from +x, CCW
+  bool has_start() const { return start_position.head<2>().allFinite(); }
 };
 
 struct Site {

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <ips/ble_aoa_t.hpp>
+#include <ips/imu_t.hpp>
 #include <ips/site_t.hpp>
 #include <ips/uwb_range_t.hpp>
 #include <ips/uwb_rx_t.hpp>
@@ -15,9 +16,10 @@ namespace {
 constexpr const char* kUwbTwr = "uwb_twr";
 constexpr const char* kUwbTdoa = "uwb_tdoa";
 constexpr const char* kAoa = "aoa";
+constexpr const char* kPdr = "pdr";
 }
 
-std::vector<std::string> ReplayHost::available() { return {kUwbTwr, kUwbTdoa, kAoa}; }
+std::vector<std::string> ReplayHost::available() { return {kUwbTwr, kUwbTdoa, kAoa, kPdr}; }
 
 ReplayHost::ReplayHost(const ReplayOptions& opts, const CommonOptions& channels, Sink sink)
     : channels_(channels), sink_(std::move(sink)), opts_(opts) {
@@ -49,6 +51,14 @@ ReplayHost::ReplayHost(const ReplayOptions& opts, const CommonOptions& channels,
     aoa_ = std::make_unique<aoa::AoaEstimator>([this, out](const pose_t& p) { emit(out, p); });
     produced_channels_.insert(out);
   }
+  if (wanted(kPdr)) {
+    const std::string steps = channels_.channel(channel::kStep);
+    const std::string poses = channels_.channel(channel::kPosePdr);
+    pdr_ = std::make_unique<pdr::PdrEstimator>([this, steps](const step_t& s) { emit(steps, s); },
+                                               [this, poses](const pose_t& p) { emit(poses, p); });
+    produced_channels_.insert(steps);
+    produced_channels_.insert(poses);
+  }
   if (!opts_.site_path.empty()) apply_site(load_site_file(opts_.site_path));
 }
 
@@ -57,6 +67,7 @@ std::vector<std::string> ReplayHost::hosted() const {
   if (twr_) names.push_back(kUwbTwr);
   if (tdoa_) names.push_back(kUwbTdoa);
   if (aoa_) names.push_back(kAoa);
+  if (pdr_) names.push_back(kPdr);
   return names;
 }
 
@@ -72,6 +83,7 @@ void ReplayHost::apply_site(const Site& site) {
   if (twr_) twr_->set_site(site);
   if (tdoa_) tdoa_->set_site(site);
   if (aoa_) aoa_->set_site(site);
+  if (pdr_) pdr_->set_site(site);
 }
 
 void ReplayHost::finish() {
@@ -124,6 +136,13 @@ void ReplayHost::process(const std::string& channel, int64_t timestamp, const ui
       return;
     }
     aoa_->on_event(m);
+  } else if (pdr_ && channel == channels_.channel(channel::kImu)) {
+    imu_t m;
+    if (!decode_message(m, data, size)) {
+      ++stats_.undecodable;
+      return;
+    }
+    pdr_->on_imu(m);
   }
 }
 

@@ -1,11 +1,12 @@
 #pragma once
 // The estimator tests' in-process loop: a scenario through the simulator, each message of the
 // kinds a test asks for decoded and handed to its handler (SITE, TRUTH, UWB_RANGE, UWB_RX,
-// BLE_AOA).
+// BLE_AOA, IMU).
 #include <gtest/gtest.h>
 
 #include <functional>
 #include <ips/ble_aoa_t.hpp>
+#include <ips/imu_t.hpp>
 #include <ips/pose_t.hpp>
 #include <ips/site_t.hpp>
 #include <ips/uwb_range_t.hpp>
@@ -23,6 +24,7 @@ struct SimHandlers {
   std::function<void(const uwb_range_t&)> uwb_range = nullptr;
   std::function<void(const uwb_rx_t&)> uwb_rx = nullptr;
   std::function<void(const ble_aoa_t&)> ble_aoa = nullptr;
+  std::function<void(const imu_t&)> imu = nullptr;
 };
 
 template <class Msg>
@@ -46,6 +48,7 @@ inline void run_simulated(const sim::Scenario& sc, uint64_t seed, const SimHandl
     else if (e.kind == "UWB_RANGE") hand_over(e, h.uwb_range);
     else if (e.kind == "UWB_RX") hand_over(e, h.uwb_rx);
     else if (e.kind == "BLE_AOA") hand_over(e, h.ble_aoa);
+    else if (e.kind == "IMU") hand_over(e, h.imu);
   }
 }
 

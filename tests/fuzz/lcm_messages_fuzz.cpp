@@ -22,6 +22,7 @@
 
 #include "core/node.hpp"
 #include "estimators/aoa/aoa_estimator.hpp"
+#include "estimators/pdr/pdr_estimator.hpp"
 #include "estimators/uwb_tdoa/tdoa_estimator.hpp"
 #include "estimators/uwb_twr/twr_estimator.hpp"
 
@@ -127,13 +128,40 @@ void feed_aoa(const uint8_t* data, size_t size) {
     est.finish();
   }
 }
+
+// A sequence of imu_t through the PDR estimator (a short alignment so fuzzed inputs reach the
+// walking code).
+void feed_pdr(const uint8_t* data, size_t size) {
+  static const ips::Site site = ips::parse_site_text(
+      "name: walk\nanchors: []\ntags:\n"
+      "  - {id: P1, height_m: 1.1, start_position: [0, 0], start_heading_deg: 0}\n"
+      "estimators:\n  pdr: {init_still_s: 0.1, max_align_s: 0.5}\n",
+      "fuzz-pdr-site");
+  ips::pdr::PdrEstimator est(
+      [](const ips::step_t& s) {
+        if (!std::isfinite(s.length_m) || !std::isfinite(s.heading_rad))
+          throw std::logic_error("non-finite step published");
+      },
+      [](const ips::pose_t& p) {
+        for (double v : p.position)
+          if (!std::isfinite(v)) throw std::logic_error("non-finite PDR position published");
+      });
+  est.set_site(site);
+  size_t pos = 0;
+  while (pos + 1 < size) {
+    const size_t len = std::min<size_t>(data[pos], size - pos - 1);
+    ips::imu_t m;
+    if (ips::decode_message(m, data + pos + 1, len)) est.on_imu(m);
+    pos += 1 + len;
+  }
+}
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (size < 1) return 0;
   const uint8_t* d = data + 1;
   const size_t n = size - 1;
-  switch (data[0] % 14) {
+  switch (data[0] % 15) {
     case 0: decode_one<ips::site_t>(d, n); break;
     case 1: decode_one<ips::pose_t>(d, n); break;
     case 2: decode_one<ips::uwb_rx_t>(d, n); break;
@@ -147,7 +175,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     case 10: decode_one<ips::uwb_range_t>(d, n); break;
     case 11: feed_tracker(d, n); break;
     case 12: feed_tdoa(d, n); break;
-    default: feed_aoa(d, n); break;
+    case 13: feed_aoa(d, n); break;
+    default: feed_pdr(d, n); break;
   }
   return 0;
 }

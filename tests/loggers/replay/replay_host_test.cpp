@@ -6,6 +6,7 @@
 
 #include <ips/clock_t.hpp>
 #include <ips/pose_t.hpp>
+#include <ips/step_t.hpp>
 #include <set>
 #include <ips/site_t.hpp>
 
@@ -114,6 +115,33 @@ TEST(ReplayHost, HostsTheAoaEstimator) {
   EXPECT_EQ(replay(ro, 10, {}, "aoa-hall"), out);
 }
 
+// The PDR estimator: on walk-square (10 s standing, then walking at 1.8 steps/s), a STEP and a
+// POSE_PDR after the IMU sample that completed the step, with the same log time.
+TEST(ReplayHost, HostsThePdrEstimator) {
+  ReplayOptions ro;
+  ro.only = {"pdr"};
+  const auto out = replay(ro, 30, {}, "walk-square");
+  int steps = 0, poses = 0;
+  for (size_t i = 0; i < out.size(); ++i) {
+    if (out[i].channel == "STEP") {
+      ++steps;
+      EXPECT_EQ(out[i - 1].channel, "IMU");
+      EXPECT_EQ(out[i - 1].timestamp, out[i].timestamp);
+      step_t s;
+      ASSERT_GT(s.decode(out[i].data.data(), 0, static_cast<int>(out[i].data.size())), 0);
+      EXPECT_EQ(s.index, steps);
+      EXPECT_EQ(s.source, "pdr");
+    }
+    if (out[i].channel == "POSE_PDR") {
+      ++poses;
+      EXPECT_EQ(out[i - 1].channel, "STEP");
+    }
+  }
+  // 20 s of walking at 1.3 m/s with 0.72 m steps: 36 steps.
+  EXPECT_NEAR(steps, 36, 1);
+  EXPECT_EQ(poses, steps);
+}
+
 TEST(ReplayHost, SameEventsSameBytes) { EXPECT_EQ(replay({}), replay({})); }
 
 TEST(ReplayHost, RegeneratedChannelsAreDroppedUnlessKept) {
@@ -142,7 +170,7 @@ TEST(ReplayHost, OnlyNamesKnownEstimators) {
     ReplayHost(ro, CommonOptions{}, [](auto&&...) {});
     FAIL();
   } catch (const ConfigError& e) {
-    EXPECT_STREQ(e.what(), "--only: unknown estimator 'teleport' (uwb_twr, uwb_tdoa, aoa)");
+    EXPECT_STREQ(e.what(), "--only: unknown estimator 'teleport' (uwb_twr, uwb_tdoa, aoa, pdr)");
   }
 }
 

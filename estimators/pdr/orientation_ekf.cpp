@@ -1,0 +1,109 @@
+#include "estimators/pdr/orientation_ekf.hpp"
+
+#include <cmath>
+
+#include "core/geometry.hpp"
+
+namespace ips::pdr {
+
+Eigen::Vector3d EarthField::world() const {
+  const double inc = deg_to_rad(inclination_deg), dec = deg_to_rad(declination_deg);
+  return magnitude_ut *
+         Eigen::Vector3d(std::sin(dec) * std::cos(inc), std::cos(dec) * std::cos(inc),
+                         -std::sin(inc));
+}
+
+void OrientationEkf::initialise(const Eigen::Vector3d& accel, const Eigen::Vector3d& gyro,
+                                const Eigen::Vector3d& mag, const EarthField& field,
+                                double yaw_rad, double initial_bias_sigma_rad_s) {
+  const Eigen::Vector3d up_b = accel.normalized();
+  Eigen::Matrix3d R;  // body -> world
+  const Eigen::Vector3d m_w = field.world();
+  const Eigen::Vector3d e_b = up_b.cross(mag);
+  if (mag.allFinite() && e_b.norm() > 1e-6 * mag.norm()) {
+    // TRIAD on (up, east): both frames' triads from gravity and the field.
+    Eigen::Matrix3d body, world;
+    body.col(0) = up_b;
+    body.col(1) = e_b.normalized();
+    body.col(2) = body.col(0).cross(body.col(1));
+    world.col(0) = Eigen::Vector3d::UnitZ();
+    world.col(1) = Eigen::Vector3d::UnitZ().cross(m_w).normalized();
+    world.col(2) = world.col(0).cross(world.col(1));
+    R = world * body.transpose();
+  } else {
+    // Tilt only (the rotation taking up_b to z), then the yaw of the body x axis.
+    const Eigen::Quaterniond tilt = Eigen::Quaterniond::FromTwoVectors(up_b, Eigen::Vector3d::UnitZ());
+    const Eigen::Vector3d x_w = tilt * Eigen::Vector3d::UnitX();
+    const double yaw_now = std::atan2(x_w.y(), x_w.x());
+    R = (Eigen::AngleAxisd(yaw_rad - yaw_now, Eigen::Vector3d::UnitZ()) * tilt).toRotationMatrix();
+  }
+  q_ = Eigen::Quaterniond(R).normalized();
+  b_ = gyro;
+  P_.setZero();
+  P_.diagonal() << 1e-4, 1e-4, deg_to_rad(5) * deg_to_rad(5), Eigen::Vector3d::Constant(
+                       initial_bias_sigma_rad_s * initial_bias_sigma_rad_s);
+}
+
+void OrientationEkf::predict(const Eigen::Vector3d& gyro, double dt, const OrientationNoise& n) {
+  if (!(dt > 0)) return;
+  const Eigen::Matrix3d R = q_.toRotationMatrix();
+  q_ = (q_ * rotation_exp((gyro - b_) * dt)).normalized();
+  Mat<6> F = Mat<6>::Identity();
+  F.topRightCorner<3, 3>() = -R * dt;
+  P_ = F * P_ * F.transpose();
+  P_.diagonal().head<3>().array() += n.gyro_noise_rad_s * n.gyro_noise_rad_s * dt;
+  P_.diagonal().tail<3>().array() += n.bias_walk_rad_s2 * n.bias_walk_rad_s2 * dt;
+  symmetrize<6>(P_);
+}
+
+void OrientationEkf::apply(const Vec<6>& dx) {
+  q_ = (rotation_exp(dx.head<3>()) * q_).normalized();
+  b_ += dx.tail<3>();
+}
+
+void OrientationEkf::update_gravity(const Eigen::Vector3d& accel, double sigma) {
+  const double norm = accel.norm();
+  if (!(norm > 1e-3) || !accel.allFinite()) return;
+  const Eigen::Matrix3d Rt = q_.toRotationMatrix().transpose();
+  const Eigen::Vector3d h = Rt * Eigen::Vector3d::UnitZ();
+  Mat<3, 6> H = Mat<3, 6>::Zero();
+  H.leftCols<3>() = Rt * skew(Eigen::Vector3d::UnitZ());
+  Vec<6> dx = Vec<6>::Zero();
+  const Vec<3> y = accel / norm - h;
+  if (vector_update<6, 3>(dx, P_, H, y, Mat<3>::Identity() * sigma * sigma).accepted) apply(dx);
+}
+
+bool OrientationEkf::update_mag_heading(const Eigen::Vector3d& mag, const EarthField& field,
+                                        double norm_tolerance, double dip_tolerance_rad,
+                                        double sigma_rad) {
+  if (!mag.allFinite()) return false;
+  const Eigen::Vector3d m_w = q_ * mag;
+  const double norm = m_w.norm();
+  if (std::abs(norm - field.magnitude_ut) > norm_tolerance * field.magnitude_ut) return false;
+  const double dip = std::atan2(-m_w.z(), std::hypot(m_w.x(), m_w.y()));
+  if (std::abs(dip - deg_to_rad(field.inclination_deg)) > dip_tolerance_rad) return false;
+  // A heading error dpsi (world z) turns the measured field by -dpsi about z.
+  const Eigen::Vector3d ref = field.world();
+  const double innovation =
+      wrap_angle(std::atan2(ref.y(), ref.x()) - std::atan2(m_w.y(), m_w.x()));
+  Mat<1, 6> H = Mat<1, 6>::Zero();
+  H(0, 2) = 1.0;
+  Vec<6> dx = Vec<6>::Zero();
+  if (scalar_update<6>(dx, P_, H, innovation, sigma_rad * sigma_rad).accepted) apply(dx);
+  return true;
+}
+
+void OrientationEkf::update_zero_rate(const Eigen::Vector3d& gyro, double sigma) {
+  Mat<3, 6> H = Mat<3, 6>::Zero();
+  H.rightCols<3>() = Mat<3>::Identity();
+  Vec<6> dx = Vec<6>::Zero();
+  const Vec<3> y = gyro - b_;
+  if (vector_update<6, 3>(dx, P_, H, y, Mat<3>::Identity() * sigma * sigma).accepted) apply(dx);
+}
+
+double OrientationEkf::heading_of(const Eigen::Vector3d& body_axis) const {
+  const Eigen::Vector3d w = q_ * body_axis;
+  return std::atan2(w.y(), w.x());
+}
+
+}  // namespace ips::pdr

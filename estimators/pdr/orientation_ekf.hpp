@@ -1,0 +1,81 @@
+#pragma once
+// Attitude of a phone from its IMU: a multiplicative quaternion EKF (source 002 section 2.6,
+// written in error-state form: the quaternion is kept normalised and the 3-vector attitude error,
+// in the site/world frame, is what the filter estimates, with the gyro bias).
+//   - prediction: q <- q (x) Exp((omega - b) dt); error dynamics d(dtheta)/dt = -R(q) db;
+//   - accelerometer correction: a/|a| against R(q)' e_z (gravity, world z up), trusted when the
+//     phone is still and weakly while it moves (walking accelerations average out);
+//   - magnetometer correction of the heading only, when the field looks undisturbed: its norm
+//     within a tolerance of the Earth's field and its dip within a tolerance of the site's
+//     inclination (002 section 4: "gate on |m| and on dip angle"); the reference is the Earth
+//     field in ENU, [sin D cos I, cos D cos I, -sin I] (002's printed reference confuses
+//     declination with dip);
+//   - gyro bias learned in still periods: a zero-rate update (omega - b = 0) while still.
+// Frames: body = the Android device frame; world = the site frame, x East, y North, z up.
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include "core/ekf.hpp"
+
+namespace ips::pdr {
+
+struct EarthField {
+  double magnitude_ut = 50.0;      // Prague (002 sections 2.4, 2.6)
+  double inclination_deg = 66.0;   // dip, positive down
+  double declination_deg = 4.82;   // east of true north
+  Eigen::Vector3d world() const;   // the field in ENU, microtesla
+};
+
+struct OrientationNoise {
+  double gyro_noise_rad_s = 0.01;     // white noise density, rad/s/sqrt(Hz)
+  double bias_walk_rad_s2 = 1e-4;     // gyro bias random walk, rad/s^2/sqrt(Hz)
+  double gravity_sigma_still = 0.02;  // unit-vector noise of a/|a| when still
+  double gravity_sigma_moving = 0.5;  // ... while walking
+  double mag_heading_sigma_rad = 0.2;
+  double zero_rate_sigma_rad_s = 0.01;
+};
+
+class OrientationEkf {
+ public:
+  // Still phone: tilt from the mean specific force; heading from the mean field (TRIAD) when
+  // `mag` is finite, else `yaw_rad` for the device x axis; gyro bias = the mean rate.
+  void initialise(const Eigen::Vector3d& accel, const Eigen::Vector3d& gyro,
+                  const Eigen::Vector3d& mag, const EarthField& field, double yaw_rad,
+                  double initial_bias_sigma_rad_s);
+  void predict(const Eigen::Vector3d& gyro, double dt, const OrientationNoise& n);
+  void update_gravity(const Eigen::Vector3d& accel, double sigma);
+  // False (nothing changed) when the field fails the norm or dip check.
+  bool update_mag_heading(const Eigen::Vector3d& mag, const EarthField& field,
+                          double norm_tolerance, double dip_tolerance_rad, double sigma_rad);
+  void update_zero_rate(const Eigen::Vector3d& gyro, double sigma);
+
+  const Eigen::Quaterniond& q() const { return q_; }  // body -> world
+  const Eigen::Vector3d& bias() const { return b_; }
+  const Mat<6>& P() const { return P_; }
+  // Heading (from +x, CCW) of a body axis projected on the horizontal plane.
+  double heading_of(const Eigen::Vector3d& body_axis) const;
+  double yaw_variance() const { return P_(2, 2); }
+
+ private:
+  void apply(const Vec<6>& dx);
+  Eigen::Quaterniond q_ = Eigen::Quaterniond::Identity();
+  Eigen::Vector3d b_ = Eigen::Vector3d::Zero();
+  Vec<6> x_ = Vec<6>::Zero();  // the error state, always zero between updates
+  Mat<6> P_ = Mat<6>::Identity();
+};
+
+// Skew-symmetric cross-product matrix: skew(a) b = a x b.
+inline Eigen::Matrix3d skew(const Eigen::Vector3d& a) {
+  Eigen::Matrix3d m;
+  m << 0, -a.z(), a.y(), a.z(), 0, -a.x(), -a.y(), a.x(), 0;
+  return m;
+}
+
+// Exp of a rotation vector as a quaternion.
+inline Eigen::Quaterniond rotation_exp(const Eigen::Vector3d& v) {
+  const double angle = v.norm();
+  if (angle < 1e-12) return Eigen::Quaterniond(1, 0.5 * v.x(), 0.5 * v.y(), 0.5 * v.z()).normalized();
+  return Eigen::Quaterniond(Eigen::AngleAxisd(angle, v / angle));
+}
+
+}  // namespace ips::pdr

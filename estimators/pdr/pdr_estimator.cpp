@@ -1,0 +1,272 @@
+#include "estimators/pdr/pdr_estimator.hpp"
+
+#include <cmath>
+#include <limits>
+
+#include "core/geometry.hpp"
+
+namespace ips::pdr {
+
+namespace {
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+Eigen::Vector3d vec(const double (&v)[3]) { return {v[0], v[1], v[2]}; }
+}  // namespace
+
+PdrParams parse_pdr_params(const YamlField& s) {
+  PdrParams p;
+  if (!s.defined()) return p;
+  if (!s.is_map()) s.fail("expected a map of pdr parameters");
+  s.check_keys({"detector", "filter_order", "filter_cutoff_hz", "peak_threshold_mps2",
+                "zero_crossing_threshold_mps2", "min_step_interval_s", "signal", "step_model",
+                "step_k", "step_k2", "body_height_m", "levi_s0_m", "levi_f0_hz",
+                "levi_m_per_hz", "step_min_m", "step_max_m", "use_magnetometer",
+                "mag_field_ut", "mag_inclination_deg", "mag_declination_deg",
+                "mag_norm_tolerance", "mag_dip_tolerance_deg", "mag_update_period_s",
+                "mag_heading_sigma_deg", "phone_yaw_offset_deg", "gyro_noise_rad_s",
+                "gyro_bias_walk_rad_s2", "init_still_s", "max_align_s", "still_gyro_rad_s",
+                "still_accel_mps2", "still_window_s", "step_length_sigma_m", "max_gap_s",
+                "max_tags"});
+  auto bounded = [&](const char* key, double& v, double lo, double hi) {
+    v = s.get_double(key, v);
+    if (!(v >= lo && v <= hi))
+      s[key].fail("must be in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
+  };
+  const std::string det = s.get_string("detector", "peak");
+  if (det == "peak") p.detector.kind = StepDetectorKind::kPeak;
+  else if (det == "zero_crossing") p.detector.kind = StepDetectorKind::kZeroCrossing;
+  else s["detector"].fail("expected peak or zero_crossing, got '" + det + "'");
+  double order = p.detector.filter_order;
+  bounded("filter_order", order, 1, 12);
+  p.detector.filter_order = static_cast<int>(order);
+  if (p.detector.filter_order != order) s["filter_order"].fail("must be an integer");
+  bounded("filter_cutoff_hz", p.detector.filter_cutoff_hz, 0.1, 20);
+  bounded("peak_threshold_mps2", p.detector.peak_threshold, 0, 50);
+  bounded("zero_crossing_threshold_mps2", p.detector.zero_crossing_threshold, 0, 50);
+  bounded("min_step_interval_s", p.detector.min_step_interval_s, 0.05, 5);
+  const std::string sig = s.get_string("signal", "vertical");
+  if (sig == "vertical") p.signal = StepSignal::kVertical;
+  else if (sig == "norm") p.signal = StepSignal::kNorm;
+  else s["signal"].fail("expected vertical or norm, got '" + sig + "'");
+  const std::string model = s.get_string("step_model", "modified_weinberg");
+  const auto m = parse_step_model(model);
+  if (!m)
+    s["step_model"].fail(
+        "expected static, weinberg, modified_weinberg, kang, kim, scarlett, tian or levi");
+  p.length.model = *m;
+  if (p.length.model == StepModel::kStatic) p.length.k = 0.415;  // 002 (3.1), men
+  bounded("step_k", p.length.k, -100, 100);
+  bounded("step_k2", p.length.k2, -100, 100);
+  bounded("body_height_m", p.length.height_m, 0.5, 2.5);
+  bounded("levi_s0_m", p.length.s0_m, 0, 3);
+  bounded("levi_f0_hz", p.length.f0_hz, 0.1, 5);
+  bounded("levi_m_per_hz", p.length.m_per_hz, -5, 5);
+  bounded("step_min_m", p.length.min_m, 0, 3);
+  bounded("step_max_m", p.length.max_m, p.length.min_m, 5);
+  p.use_magnetometer = s.get_bool("use_magnetometer", p.use_magnetometer);
+  bounded("mag_field_ut", p.field.magnitude_ut, 1, 1000);
+  bounded("mag_inclination_deg", p.field.inclination_deg, -90, 90);
+  bounded("mag_declination_deg", p.field.declination_deg, -180, 180);
+  bounded("mag_norm_tolerance", p.mag_norm_tolerance, 0, 10);
+  bounded("mag_dip_tolerance_deg", p.mag_dip_tolerance_deg, 0, 180);
+  bounded("mag_update_period_s", p.mag_update_period_s, 0, 100);
+  double mag_sigma_deg = rad_to_deg(p.noise.mag_heading_sigma_rad);
+  bounded("mag_heading_sigma_deg", mag_sigma_deg, 0.01, 180);
+  p.noise.mag_heading_sigma_rad = deg_to_rad(mag_sigma_deg);
+  bounded("phone_yaw_offset_deg", p.phone_yaw_offset_deg, -360, 360);
+  bounded("gyro_noise_rad_s", p.noise.gyro_noise_rad_s, 1e-6, 10);
+  bounded("gyro_bias_walk_rad_s2", p.noise.bias_walk_rad_s2, 0, 10);
+  bounded("init_still_s", p.init_still_s, 0.05, 600);
+  bounded("max_align_s", p.max_align_s, p.init_still_s, 3600);
+  bounded("still_gyro_rad_s", p.still_gyro_rad_s, 0, 10);
+  bounded("still_accel_mps2", p.still_accel_mps2, 0, 10);
+  bounded("still_window_s", p.still_window_s, 0.01, 10);
+  bounded("step_length_sigma_m", p.step_length_sigma_m, 0, 10);
+  bounded("max_gap_s", p.max_gap_s, 0.001, 60);
+  double max_tags = p.max_tags;
+  bounded("max_tags", max_tags, 1, 10000);
+  p.max_tags = static_cast<int>(max_tags);
+  return p;
+}
+
+PdrEstimator::PdrEstimator(StepSink steps, PoseSink poses, std::string source_name)
+    : step_sink_(std::move(steps)), pose_sink_(std::move(poses)), source_(std::move(source_name)) {}
+
+void PdrEstimator::set_site(const Site& site) {
+  params_ = parse_pdr_params(site.estimator_params("pdr"));
+  site_ = site;
+  tracks_.clear();
+}
+
+void PdrEstimator::on_imu(const imu_t& m) {
+  ++stats_.samples_in;
+  if (!site_) {
+    ++stats_.dropped_no_site;
+    return;
+  }
+  const Eigen::Vector3d a = vec(m.accel), g = vec(m.gyro);
+  if (!plausible_utime(m.utime) || !a.allFinite() || !g.allFinite() || m.device_id.empty() ||
+      a.norm() > 1000 || g.norm() > 100) {
+    ++stats_.dropped_invalid;
+    return;
+  }
+  auto it = tracks_.find(m.device_id);
+  if (it == tracks_.end()) {
+    if (static_cast<int>(tracks_.size()) >= params_.max_tags) {
+      ++stats_.dropped_too_many_tags;
+      return;
+    }
+    it = tracks_.emplace(m.device_id, Track{}).first;
+    it->second.first_utime = m.utime;
+    it->second.rest_start = m.utime;
+  } else if (m.utime <= it->second.last_utime) {
+    ++stats_.dropped_time;
+    return;
+  }
+  Track& t = it->second;
+  const double dt = t.last_utime ? utime_to_s(m.utime - t.last_utime) : 0.0;
+  t.last_utime = m.utime;
+  if (dt > params_.max_gap_s) ++stats_.gaps;
+  const bool usable_dt = dt > 0 && dt <= params_.max_gap_s;
+
+  if (!t.aligned) {
+    // Rest: gravity-sized specific force and a small rate; anything else restarts the window.
+    const bool rest = std::abs(a.norm() - params_.gravity_mps2) < params_.still_accel_mps2 &&
+                      g.norm() < params_.still_gyro_rad_s;
+    if (!rest) {
+      t.sum_a.setZero();
+      t.sum_g.setZero();
+      t.sum_m.setZero();
+      t.n = t.n_mag = 0;
+      t.rest_start = m.utime;
+    } else {
+      t.sum_a += a;
+      t.sum_g += g;
+      if (vec(m.mag_ut).allFinite()) {
+        t.sum_m += vec(m.mag_ut);
+        ++t.n_mag;
+      }
+      ++t.n;
+    }
+    if (usable_dt) {
+      t.sum_dt += dt;
+      ++t.n_dt;
+    }
+    if (t.n > 0 && utime_to_s(m.utime - t.rest_start) >= params_.init_still_s && t.n_dt > 0) {
+      align(t, m.device_id, true);
+    } else if (utime_to_s(m.utime - t.first_utime) >= params_.max_align_s && t.n_dt > 0) {
+      if (t.n == 0) {  // no rest at all: the current sample is all there is
+        t.sum_a = a;
+        t.sum_g.setZero();
+        t.n = 1;
+      }
+      align(t, m.device_id, false);
+    }
+    return;
+  }
+  if (!usable_dt) return;
+  walk(t, m.device_id, m, dt);
+}
+
+void PdrEstimator::align(Track& t, const std::string& tag_id, bool rested) {
+  const Tag* tag = site_->find_tag(tag_id);
+  const double offset = deg_to_rad(params_.phone_yaw_offset_deg);
+  double start_heading = 0.0;
+  if (tag && std::isfinite(tag->start_heading_rad)) start_heading = tag->start_heading_rad;
+  const Eigen::Vector3d mag = params_.use_magnetometer && t.n_mag > 0
+                                  ? Eigen::Vector3d(t.sum_m / t.n_mag)
+                                  : Eigen::Vector3d::Constant(kNaN);
+  // Without the magnetometer the device x axis points at the walking heading + offset - 90 deg.
+  t.ekf.initialise(t.sum_a / t.n, t.sum_g / t.n, mag, params_.field,
+                   start_heading + offset - M_PI / 2, rested ? 0.002 : 0.05);
+  t.detector = std::make_unique<StepDetector>(params_.detector, t.n_dt / t.sum_dt);
+  if (tag && tag->has_start()) {
+    t.position = tag->start_position.head<2>();
+    t.z = tag->start_position.z();
+  } else {
+    ++stats_.no_start_pose;
+    t.z = tag && std::isfinite(tag->height_m) ? tag->height_m : 0.0;
+  }
+  if (tag && std::isfinite(tag->height_m)) t.z = tag->height_m;
+  t.aligned = true;
+  ++stats_.alignments;
+  if (!rested) ++stats_.alignments_without_rest;
+}
+
+void PdrEstimator::walk(Track& t, const std::string& tag_id, const imu_t& m, double dt) {
+  const Eigen::Vector3d a = vec(m.accel), g = vec(m.gyro), mag = vec(m.mag_ut);
+  t.ekf.predict(g, dt, params_.noise);
+  const bool still_now = std::abs(a.norm() - params_.gravity_mps2) < params_.still_accel_mps2 &&
+                         (g - t.ekf.bias()).norm() < params_.still_gyro_rad_s;
+  t.still_s = still_now ? t.still_s + dt : 0.0;
+  const bool still = t.still_s >= params_.still_window_s;
+  t.ekf.update_gravity(a, still ? params_.noise.gravity_sigma_still
+                                : params_.noise.gravity_sigma_moving);
+  if (still) t.ekf.update_zero_rate(g, params_.noise.zero_rate_sigma_rad_s);
+  if (params_.use_magnetometer && mag.allFinite() &&
+      utime_to_s(m.utime - t.last_mag_update) >= params_.mag_update_period_s) {
+    t.last_mag_update = m.utime;
+    if (t.ekf.update_mag_heading(mag, params_.field, params_.mag_norm_tolerance,
+                                 deg_to_rad(params_.mag_dip_tolerance_deg),
+                                 params_.noise.mag_heading_sigma_rad))
+      ++stats_.mag_updates;
+    else
+      ++stats_.mag_rejected;
+  }
+  const double heading =
+      t.ekf.heading_of(Eigen::Vector3d::UnitY()) - deg_to_rad(params_.phone_yaw_offset_deg);
+  t.sum_cos += std::cos(heading);
+  t.sum_sin += std::sin(heading);
+
+  const Eigen::Vector3d a_world = t.ekf.q() * a;
+  const double signal = params_.signal == StepSignal::kVertical
+                            ? a_world.z() - params_.gravity_mps2
+                            : a.norm() - params_.gravity_mps2;
+  const auto step = t.detector->add(m.utime, signal);
+  if (!step) return;
+  const double theta = std::atan2(t.sum_sin, t.sum_cos);
+  t.sum_cos = t.sum_sin = 0;
+  const double sl = step_length(params_.length, *step);
+  const Eigen::Vector2d dir(std::cos(theta), std::sin(theta));
+  t.position += sl * dir;
+  // Along the step: the length's noise; across it: the heading's.
+  const double along = params_.step_length_sigma_m * params_.step_length_sigma_m;
+  const double across = sl * sl * std::max(t.ekf.yaw_variance(), 0.0);
+  const Eigen::Vector2d perp(-dir.y(), dir.x());
+  t.cov += along * dir * dir.transpose() + across * perp * perp.transpose();
+  ++t.steps;
+  ++stats_.steps;
+
+  step_t s;
+  s.utime = step->utime;
+  s.source = source_;
+  s.tag_id = tag_id;
+  s.index = t.steps;
+  s.length_m = sl;
+  s.heading_rad = theta;
+  s.cadence_hz = step->interval_s > 0 ? 1.0 / step->interval_s : 0.0;
+  step_sink_(s);
+
+  pose_t p;
+  p.utime = step->utime;
+  p.source = source_;
+  p.tag_id = tag_id;
+  p.position[0] = t.position.x();
+  p.position[1] = t.position.y();
+  p.position[2] = t.z;
+  for (double& c : p.position_cov) c = 0.0;
+  p.position_cov[0] = t.cov(0, 0);
+  p.position_cov[1] = p.position_cov[3] = t.cov(0, 1);
+  p.position_cov[4] = t.cov(1, 1);
+  for (int k = 0; k < 2; ++k) p.velocity[k] = s.cadence_hz * sl * dir(k);
+  p.velocity[2] = 0.0;
+  if (s.cadence_hz == 0) p.velocity[0] = p.velocity[1] = kNaN;
+  p.heading_rad = theta;
+  p.num_used = 1;
+  p.residual_m = kNaN;
+  p.status = pose_t::STATUS_OK;
+  p.status |= pose_t::STATUS_2D;
+  pose_sink_(p);
+}
+
+}  // namespace ips::pdr

@@ -1,0 +1,121 @@
+#pragma once
+// Pedestrian dead reckoning with a hand-held phone (source 002): imu_t per device -> step_t on
+// STEP and a 2D pose on POSE_PDR per step.
+//   1. Alignment: the phone must first rest for init_still_s (002 section 4: an initial rest
+//      window): tilt from gravity, heading from the magnetometer (TRIAD) or from the tag's start
+//      heading in the site, gyro bias from the mean rate.
+//   2. Attitude: OrientationEkf (orientation_ekf.hpp), with gravity and zero-rate updates while
+//      still and gated magnetometer heading updates.
+//   3. Steps: the vertical linear acceleration (world z, gravity removed; or the norm) through
+//      StepDetector (step_detector.hpp); each step's length from the chosen model
+//      (step_length.hpp).
+//   4. Walking heading: the circular mean over the step of the heading of the phone's top (its
+//      y axis) minus phone_yaw_offset_deg (the phone's yaw relative to the walking direction).
+//   5. Position (002 (4.6)): x += SL cos(theta), y += SL sin(theta), theta from +x
+//      counter-clockwise, from the tag's start position in the site.
+// Pure: takes messages, emits through callbacks, never reads a clock.
+#include <functional>
+#include <ips/imu_t.hpp>
+#include <ips/pose_t.hpp>
+#include <ips/step_t.hpp>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+
+#include "core/site.hpp"
+#include "estimators/pdr/orientation_ekf.hpp"
+#include "estimators/pdr/step_detector.hpp"
+#include "estimators/pdr/step_length.hpp"
+
+namespace ips::pdr {
+
+enum class StepSignal { kVertical, kNorm };
+
+struct PdrParams {
+  StepDetectorParams detector;
+  StepLengthParams length;
+  StepSignal signal = StepSignal::kVertical;
+  EarthField field;
+  OrientationNoise noise;
+  bool use_magnetometer = true;
+  double mag_norm_tolerance = 0.15;      // |m| within 15 % of the Earth field
+  double mag_dip_tolerance_deg = 8.0;
+  double mag_update_period_s = 0.5;      // disturbances are correlated: not every sample
+  double phone_yaw_offset_deg = 0.0;     // phone's top relative to the walking direction, CCW
+  double gravity_mps2 = 9.81;
+  double init_still_s = 1.0;             // rest needed before the first step
+  double max_align_s = 10.0;             // start anyway after this long without rest
+  double still_gyro_rad_s = 0.05;        // still: |omega - b| below this ...
+  double still_accel_mps2 = 0.3;         // ... and ||a| - g| below this ...
+  double still_window_s = 0.3;           // ... for this long
+  double step_length_sigma_m = 0.05;
+  double max_gap_s = 0.5;                // a larger gap between samples is not integrated
+  int max_tags = 100;
+};
+
+// Reads `estimators.pdr` of the site; throws ConfigError naming file, line and field.
+PdrParams parse_pdr_params(const YamlField& section);
+
+struct PdrStats {
+  int64_t samples_in = 0;
+  int64_t dropped_invalid = 0;     // NaN accelerometer or gyroscope, implausible utime
+  int64_t dropped_time = 0;        // not after the device's previous sample
+  int64_t gaps = 0;                // samples after a gap longer than max_gap_s
+  int64_t dropped_no_site = 0;
+  int64_t dropped_too_many_tags = 0;
+  int64_t alignments = 0;
+  int64_t alignments_without_rest = 0;
+  int64_t mag_updates = 0;
+  int64_t mag_rejected = 0;        // field failed the norm or dip check
+  int64_t steps = 0;
+  int64_t no_start_pose = 0;       // tags started at the origin: no start_position in the site
+};
+
+class PdrEstimator {
+ public:
+  using StepSink = std::function<void(const step_t&)>;
+  using PoseSink = std::function<void(const pose_t&)>;
+  PdrEstimator(StepSink steps, PoseSink poses, std::string source_name = "pdr");
+
+  void set_site(const Site& site);
+  bool has_site() const { return site_.has_value(); }
+  void on_imu(const imu_t& m);
+  const PdrStats& stats() const { return stats_; }
+  const PdrParams& params() const { return params_; }
+
+ private:
+  struct Track {
+    bool aligned = false;
+    utime_t first_utime = 0, last_utime = 0;
+    // Alignment sums over the current rest.
+    Eigen::Vector3d sum_a = Eigen::Vector3d::Zero(), sum_g = Eigen::Vector3d::Zero(),
+                    sum_m = Eigen::Vector3d::Zero();
+    int n = 0, n_mag = 0;
+    utime_t rest_start = 0;
+    double sum_dt = 0;
+    int n_dt = 0;
+    OrientationEkf ekf;
+    std::unique_ptr<StepDetector> detector;
+    double still_s = 0;
+    utime_t last_mag_update = 0;
+    double sum_cos = 0, sum_sin = 0;  // walking heading since the last step
+    Eigen::Vector2d position = Eigen::Vector2d::Zero();
+    Eigen::Matrix2d cov = Eigen::Matrix2d::Zero();
+    double z = 0;
+    int32_t steps = 0;
+  };
+
+  void align(Track& t, const std::string& tag_id, bool rested);
+  void walk(Track& t, const std::string& tag_id, const imu_t& m, double dt);
+
+  StepSink step_sink_;
+  PoseSink pose_sink_;
+  std::string source_;
+  std::optional<Site> site_;
+  PdrParams params_;
+  std::map<std::string, Track> tracks_;
+  PdrStats stats_;
+};
+
+}  // namespace ips::pdr

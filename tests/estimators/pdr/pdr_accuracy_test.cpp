@@ -1,0 +1,123 @@
+// ips-pdr on the simulated walks of source 002 (walk-square: a phone in the hand round a 200 m
+// square block, indoors with magnetic disturbances; walk-loop-840: the 841 m outdoor loop),
+// in-process: simulator -> estimator -> evaluator. Steps are counted against the simulator's
+// (distance walked / step length), distance against the path length, and the loop's closure
+// (final position against the start) reported as the source reported its Table 7.1.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <ips/imu_t.hpp>
+#include <ips/pose_t.hpp>
+#include <ips/step_t.hpp>
+
+#include "drivers/sim/simulator.hpp"
+#include "estimators/pdr/pdr_estimator.hpp"
+#include "loggers/eval/evaluation.hpp"
+#include "tests/estimators/simulated_inputs.hpp"
+
+namespace ips::pdr {
+namespace {
+
+struct PdrRun {
+  int steps = 0;
+  double distance_m = 0;      // sum of step lengths
+  double path_m = 0;          // the truth's path length
+  double final_error_m = 0;   // last pose against the last truth position
+  double closure_m = 0;       // last pose against the first truth position (start = end)
+  eval::ErrorRow row;
+  PdrStats stats;
+};
+
+PdrRun run(const std::string& scenario, uint64_t seed, const std::string& params = "") {
+  sim::Scenario sc = sim::load_scenario(scenario);
+  eval::Evaluator ev;
+  PdrRun r;
+  pose_t last_pose{};
+  PdrEstimator est(
+      [&](const step_t& s) {
+        ++r.steps;
+        r.distance_m += s.length_m;
+      },
+      [&](const pose_t& p) {
+        ev.add_estimate("POSE_PDR", p);
+        last_pose = p;
+      });
+  Site site = sc.site;
+  if (!params.empty()) site.estimators = parse_yaml_text("pdr: " + params, "params");
+  est.set_site(site);
+  Eigen::Vector2d first(NAN, NAN), prev(NAN, NAN);
+  test::run_simulated(sc, seed,
+                      {.truth =
+                           [&](const pose_t& m) {
+                             ev.add_truth(m);
+                             const Eigen::Vector2d p(m.position[0], m.position[1]);
+                             if (!first.allFinite()) first = p;
+                             if (prev.allFinite()) r.path_m += (p - prev).norm();
+                             prev = p;
+                           },
+                       .imu = [&](const imu_t& m) { est.on_imu(m); }});
+  const Eigen::Vector2d end(last_pose.position[0], last_pose.position[1]);
+  r.final_error_m = (end - prev).norm();
+  r.closure_m = (end - first).norm();
+  const auto rows = ev.rows();
+  if (!rows.empty()) r.row = rows[0];
+  r.stats = est.stats();
+  return r;
+}
+
+void print(const std::string& what, const PdrRun& r, double expected_steps) {
+  std::printf("%s: steps %d (expected %.1f, %+.2f %%), distance %.2f m of %.2f m (%+.2f %%), "
+              "final error %.2f m, closure %.2f m, rmse_h %.2f m; mag %lld/%lld rejected\n",
+              what.c_str(), r.steps, expected_steps, 100.0 * (r.steps - expected_steps) / expected_steps,
+              r.distance_m, r.path_m, 100.0 * (r.distance_m - r.path_m) / r.path_m,
+              r.final_error_m, r.closure_m, r.row.rmse_h,
+              static_cast<long long>(r.stats.mag_rejected),
+              static_cast<long long>(r.stats.mag_updates + r.stats.mag_rejected));
+}
+
+// The issue's bounds: step count within 2 %, distance within 3 % (walk-square). First
+// measurements (closing note of issue 8): steps -0.27 % (277 of 277.8), distance -0.35 %, on
+// every seed; the closure (start-end gap after 200 m) 3.5 to 12.9 m over seeds 1-3 against the
+// source's 2.7 m (CCW) and 12.7 m (CW) on its square block. The closure bound, 15 m (7.5 % of
+// the distance), sits above the seeds measured; it is there to catch a heading gone wrong.
+TEST(PdrAccuracy, WalkSquareStepsDistanceAndClosure) {
+  for (uint64_t seed : {1, 2, 3}) {
+    const PdrRun r = run("walk-square", seed);
+    const double expected_steps = r.path_m / 0.72;
+    print("walk-square seed " + std::to_string(seed), r, expected_steps);
+    EXPECT_NEAR(r.steps, expected_steps, 0.02 * expected_steps);
+    EXPECT_NEAR(r.distance_m, r.path_m, 0.03 * r.path_m);
+    EXPECT_LT(r.closure_m, 15.0);
+    EXPECT_EQ(r.stats.alignments, 1);
+    EXPECT_EQ(r.stats.alignments_without_rest, 0);
+    EXPECT_EQ(r.stats.no_start_pose, 0);
+    // The lift shaft and the steel door are seen and refused.
+    EXPECT_GT(r.stats.mag_rejected, 0);
+    EXPECT_GT(r.stats.mag_updates, 10 * r.stats.mag_rejected);
+  }
+}
+
+// The 841 m outdoor loop (002: 32.5 m final error "around CTU"): seed 1, steps and distance
+// within the same bounds, closure under 20 m (measured 15.7 m; seeds 2 and 3: 5.9 and 8.9 m).
+TEST(PdrAccuracy, Loop840StepsDistanceAndClosure) {
+  const PdrRun r = run("walk-loop-840", 1);
+  const double expected_steps = r.path_m / 0.80;
+  print("walk-loop-840 seed 1", r, expected_steps);
+  EXPECT_NEAR(r.steps, expected_steps, 0.02 * expected_steps);
+  EXPECT_NEAR(r.distance_m, r.path_m, 0.03 * r.path_m);
+  EXPECT_LT(r.closure_m, 20.0);
+}
+
+// The zero-crossing detector and the norm signal count the same steps within 2 %.
+TEST(PdrAccuracy, ZeroCrossingAndNormSignalAlsoCountTheSteps) {
+  for (const char* params : {"{detector: zero_crossing}", "{signal: norm}"}) {
+    const PdrRun r = run("walk-square", 1, params);
+    const double expected_steps = r.path_m / 0.72;
+    print(std::string("walk-square seed 1 ") + params, r, expected_steps);
+    EXPECT_NEAR(r.steps, expected_steps, 0.02 * expected_steps) << params;
+  }
+}
+
+}  // namespace
+}  // namespace ips::pdr

@@ -1,0 +1,233 @@
+// The pieces of ips-pdr on exact synthetic signals: the Butterworth pre-filter (002: 9th order,
+// 3 Hz), the step detectors, the step-length models, the orientation EKF, and the estimator's
+// handling of bad input.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <ips/imu_t.hpp>
+#include <vector>
+
+#include "core/geometry.hpp"
+#include "estimators/pdr/butterworth.hpp"
+#include "estimators/pdr/orientation_ekf.hpp"
+#include "estimators/pdr/pdr_estimator.hpp"
+#include "estimators/pdr/step_detector.hpp"
+#include "estimators/pdr/step_length.hpp"
+
+namespace ips::pdr {
+namespace {
+
+constexpr utime_t kT0 = 1767225600000000;
+
+// Steady-state amplitude of a sinusoid through the filter.
+double gain_at(int order, double fc, double fs, double f) {
+  ButterworthLowPass lp(order, fc, fs);
+  double peak = 0;
+  const int n = static_cast<int>(fs * 40);
+  for (int i = 0; i < n; ++i) {
+    const double y = lp.step(std::sin(2 * M_PI * f * i / fs));
+    if (i > n / 2) peak = std::max(peak, std::abs(y));
+  }
+  return peak;
+}
+
+TEST(Butterworth, MagnitudeIsTheButterworthCurve) {
+  // |H(f)| = 1 / sqrt(1 + (f/fc)^(2N)) for the analog prototype; the bilinear transform warps
+  // frequency, exact at DC and at fc, close elsewhere far below Nyquist.
+  EXPECT_NEAR(gain_at(9, 3, 400, 3.0), 1 / std::sqrt(2.0), 2e-3);
+  EXPECT_NEAR(gain_at(9, 3, 400, 1.8), 1 / std::sqrt(1 + std::pow(0.6, 18)), 2e-3);
+  EXPECT_NEAR(gain_at(9, 3, 400, 6.0), 1 / std::sqrt(1 + std::pow(2.0, 18)), 2e-4);
+  EXPECT_NEAR(gain_at(2, 5, 100, 5.0), 1 / std::sqrt(2.0), 2e-3);
+  ButterworthLowPass dc(9, 3, 100);
+  dc.reset(4.0);
+  for (int i = 0; i < 10; ++i) EXPECT_NEAR(dc.step(4.0), 4.0, 1e-12);  // no start-up transient
+  EXPECT_THROW(ButterworthLowPass(9, 60, 100), std::invalid_argument);
+}
+
+// A sine "vertical acceleration" at `hz`, amplitude `amp`, sampled at fs: still for 1 s, then
+// 10 s of walking (whole cycles: the sine starts and ends at 0), then still again.
+std::vector<DetectedStep> detect(const StepDetectorParams& p, double fs, double hz, double amp,
+                                 double seconds) {
+  StepDetector d(p, fs);
+  std::vector<DetectedStep> out;
+  for (int i = 0; i < static_cast<int>(seconds * fs); ++i) {
+    const double t = i / fs;
+    const double a =
+        t < 1.0 || t >= 11.0 ? 0.0 : amp * std::sin(2 * M_PI * hz * (t - 1.0));
+    if (auto s = d.add(kT0 + static_cast<utime_t>(t * 1e6), a)) out.push_back(*s);
+  }
+  return out;
+}
+
+TEST(StepDetector, PeaksCountOneStepPerCycleWithTheSourceThreshold) {
+  StepDetectorParams p;
+  const auto steps = detect(p, 100, 1.8, 2.87, 12.0);  // 10 s of walking at 1.8 Hz
+  EXPECT_EQ(steps.size(), 18u);
+  // Away from the start and the end (the filter rings at the onset), one step per cycle.
+  for (size_t i = 2; i + 1 < steps.size(); ++i) EXPECT_NEAR(steps[i].interval_s, 1 / 1.8, 0.011);
+  // The 1.8 Hz cosine passes the 3 Hz filter almost untouched: a_max - a_min = 2 A.
+  EXPECT_NEAR(steps[5].a_max - steps[5].a_min, 2 * 2.87, 0.02);
+  EXPECT_TRUE(detect(p, 100, 1.8, 1.9, 12.0).empty());  // below a_th = 2: no step
+}
+
+TEST(StepDetector, NoTwoStepsWithin033Seconds) {
+  StepDetectorParams p;
+  p.filter_cutoff_hz = 10;  // let a 4 Hz signal through
+  const auto steps = detect(p, 200, 4.0, 3.0, 12.0);
+  ASSERT_GT(steps.size(), 5u);
+  for (size_t i = 1; i < steps.size(); ++i) EXPECT_GE(steps[i].interval_s, 0.33);
+}
+
+TEST(StepDetector, ZeroCrossingCountsTheSameSteps) {
+  StepDetectorParams p;
+  p.kind = StepDetectorKind::kZeroCrossing;
+  EXPECT_EQ(detect(p, 100, 1.8, 2.87, 12.0).size(), 18u);
+  EXPECT_TRUE(detect(p, 100, 1.8, 0.9, 12.0).empty());  // troughs above -1 m/s^2
+}
+
+TEST(StepLength, ModelsOfTheSource) {
+  DetectedStep s;
+  // 002's calibration read as modified Weinberg: SL = (a_max - a_min)^(1/4) - 0.828.
+  s.a_max = 0.5 * std::pow(0.72 + 0.828, 4);
+  s.a_min = -s.a_max;
+  s.interval_s = 0.5;
+  StepLengthParams p;
+  EXPECT_NEAR(step_length(p, s), 0.72, 1e-12);
+  p.model = StepModel::kWeinberg;
+  p.k = 0.5;
+  EXPECT_NEAR(step_length(p, s), 0.5 * (0.72 + 0.828), 1e-12);
+  p.model = StepModel::kStatic;
+  p.k = 0.415;
+  p.height_m = 1.8;
+  EXPECT_NEAR(step_length(p, s), 0.747, 1e-12);  // 002 (3.1): K h
+  p.model = StepModel::kTian;
+  p.k = 0.35;
+  EXPECT_NEAR(step_length(p, s), 0.35 * 1.8 * std::sqrt(2.0), 1e-12);
+  p.model = StepModel::kLevi;
+  EXPECT_NEAR(step_length(p, s), 0.7 + 0.3 * (2.0 - 1.8), 1e-12);
+  p.model = StepModel::kKang;
+  p.k = 1.0;
+  p.k2 = 0.2;
+  EXPECT_NEAR(step_length(p, s), std::log10(s.a_max - s.a_min) - 0.2, 1e-12);
+  p.model = StepModel::kModifiedWeinberg;
+  p.k2 = 5;  // absurd: clamped to the walking range
+  EXPECT_EQ(step_length(p, s), p.min_m);
+  for (const char* n : {"static", "weinberg", "modified_weinberg", "kang", "kim", "scarlett",
+                        "tian", "levi"})
+    EXPECT_STREQ(step_model_name(*parse_step_model(n)), n);
+}
+
+TEST(OrientationEkf, GravityJacobianMatchesFiniteDifferences) {
+  // h(dtheta) = (Exp(dtheta) R)' e_z; the filter's H is R' skew(e_z).
+  OrientationEkf ekf;
+  const Eigen::Vector3d accel = Eigen::AngleAxisd(0.3, Eigen::Vector3d(1, 2, 0.5).normalized()) *
+                                Eigen::Vector3d(0, 0, 9.81);
+  ekf.initialise(accel, Eigen::Vector3d::Zero(), Eigen::Vector3d::Constant(NAN), EarthField{},
+                 0.4, 0.01);
+  const Eigen::Matrix3d R = ekf.q().toRotationMatrix();
+  const Eigen::Matrix3d H = R.transpose() * skew(Eigen::Vector3d::UnitZ());
+  for (int k = 0; k < 3; ++k) {
+    Eigen::Vector3d d = Eigen::Vector3d::Zero();
+    d(k) = 1e-6;
+    const Eigen::Vector3d hp = (rotation_exp(d) * ekf.q()).toRotationMatrix().transpose().col(2);
+    const Eigen::Vector3d hm = (rotation_exp(-d) * ekf.q()).toRotationMatrix().transpose().col(2);
+    EXPECT_LT(((hp - hm) / 2e-6 - H.col(k)).norm(), 1e-8) << k;
+  }
+  // Initialised from gravity alone: R' e_z is the measured direction.
+  EXPECT_LT((R.transpose().col(2) - accel.normalized()).norm(), 1e-12);
+  EXPECT_NEAR(ekf.heading_of(Eigen::Vector3d::UnitX()),
+              std::atan2((R.col(0)).y(), (R.col(0)).x()), 1e-12);
+}
+
+TEST(OrientationEkf, TriadHeadingFromTheEarthField) {
+  // A flat phone turned so its top points 30 deg east of north: the field's horizontal part is
+  // seen rotated; TRIAD gives the top's heading (from +x = East, CCW) 90 - 30 = 60 deg, plus the
+  // declination, since the field points to magnetic north.
+  EarthField field;
+  field.declination_deg = 0;
+  const double top_heading = deg_to_rad(60);
+  const Eigen::Matrix3d R =  // body -> world: device y along top_heading
+      Eigen::AngleAxisd(top_heading - M_PI / 2, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  const Eigen::Vector3d mag = R.transpose() * field.world();
+  OrientationEkf ekf;
+  ekf.initialise(Eigen::Vector3d(0, 0, 9.81), Eigen::Vector3d::Zero(), mag, field, 0, 0.01);
+  EXPECT_NEAR(ekf.heading_of(Eigen::Vector3d::UnitY()), top_heading, 1e-9);
+}
+
+TEST(OrientationEkf, GyroBiasIsLearnedWhileStill) {
+  OrientationEkf ekf;
+  ekf.initialise(Eigen::Vector3d(0, 0, 9.81), Eigen::Vector3d::Zero(),
+                 Eigen::Vector3d::Constant(NAN), EarthField{}, 0, 0.05);
+  const Eigen::Vector3d bias(0.01, -0.02, 0.015);
+  OrientationNoise n;
+  for (int i = 0; i < 500; ++i) {  // 5 s still at 100 Hz, the gyro reading only its bias
+    ekf.predict(bias, 0.01, n);
+    ekf.update_gravity(Eigen::Vector3d(0, 0, 9.81), n.gravity_sigma_still);
+    ekf.update_zero_rate(bias, n.zero_rate_sigma_rad_s);
+  }
+  EXPECT_LT((ekf.bias() - bias).norm(), 1e-4);
+}
+
+TEST(OrientationEkf, DisturbedFieldIsRefused) {
+  EarthField field;
+  OrientationEkf ekf;
+  ekf.initialise(Eigen::Vector3d(0, 0, 9.81), Eigen::Vector3d::Zero(), field.world(), field, 0,
+                 0.01);
+  EXPECT_TRUE(ekf.update_mag_heading(field.world(), field, 0.15, deg_to_rad(8), 0.2));
+  EXPECT_FALSE(ekf.update_mag_heading(1.3 * field.world(), field, 0.15, deg_to_rad(8), 0.2));
+  const Eigen::Vector3d flat(0, field.magnitude_ut, 0);  // right norm, dip 0 instead of 66
+  EXPECT_FALSE(ekf.update_mag_heading(flat, field, 0.15, deg_to_rad(8), 0.2));
+}
+
+TEST(PdrEstimator, BadSamplesAreCountedNotUsed) {
+  int poses = 0;
+  PdrEstimator est([](const step_t&) {}, [&](const pose_t&) { ++poses; });
+  imu_t m{};
+  m.device_id = "P1";
+  m.device_utime = -1;
+  for (int k = 0; k < 3; ++k) {
+    m.accel[k] = k == 2 ? 9.81 : 0.0;
+    m.gyro[k] = 0;
+    m.mag_ut[k] = NAN;
+  }
+  m.utime = kT0;
+  est.on_imu(m);  // before a site
+  est.set_site(parse_site_text("name: s\nanchors: []\ntags:\n  - {id: P1, height_m: 1.1}\n", "s"));
+  est.on_imu(m);
+  est.on_imu(m);  // the same time again
+  m.utime = kT0 + 10000;
+  m.gyro[0] = NAN;
+  est.on_imu(m);
+  m.gyro[0] = 0;
+  m.device_id = "";
+  est.on_imu(m);
+  const PdrStats& s = est.stats();
+  EXPECT_EQ(s.samples_in, 5);
+  EXPECT_EQ(s.dropped_no_site, 1);
+  EXPECT_EQ(s.dropped_time, 1);
+  EXPECT_EQ(s.dropped_invalid, 2);
+  EXPECT_EQ(poses, 0);
+}
+
+TEST(PdrEstimator, BadParametersStopWithTheField) {
+  PdrEstimator est([](const step_t&) {}, [](const pose_t&) {});
+  auto fails = [&](const std::string& params, const std::string& want) {
+    Site site = parse_site_text("name: s\nanchors: []\n", "s");
+    site.estimators = parse_yaml_text("pdr: " + params, "site.yaml");
+    try {
+      est.set_site(site);
+      ADD_FAILURE() << params;
+    } catch (const ConfigError& e) {
+      EXPECT_NE(std::string(e.what()).find(want), std::string::npos) << e.what();
+    }
+  };
+  fails("{detector: fft}", "expected peak or zero_crossing");
+  fails("{step_model: magic}", "expected static, weinberg");
+  fails("{filter_order: 2.5}", "must be an integer");
+  fails("{filter_cutoff_hz: 0}", "filter_cutoff_hz");
+  fails("{signal: sideways}", "expected vertical or norm");
+  fails("{step_lenght: 1}", "step_lenght");
+}
+
+}  // namespace
+}  // namespace ips::pdr
