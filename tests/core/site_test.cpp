@@ -85,7 +85,27 @@ TEST(SiteErrors, UnknownKind) {
 
 TEST(SiteErrors, MisspeltFieldIsAnErrorNotADefault) {
   EXPECT_EQ(error_of("anchors:\n  - {id: A1, position: [0, 0, 0]}\ntags:\n  - {id: T1, heigth_m: 1.2}\n"),
-            "site.yaml:4: tags[0].heigth_m: unknown field (known: id, height_m)");
+            "site.yaml:4: tags[0].heigth_m: unknown field (known: id, height_m, start_position, "
+            "start_heading_deg)");
+}
+
+TEST(Site, TagStartPoseForTheRelativeEstimators) {
+  const Site s = parse_site_text(
+      "anchors: []\ntags:\n"
+      "  - {id: P1, height_m: 1.1, start_position: [2, 3], start_heading_deg: 90}\n"
+      "  - {id: P2, start_position: [4, 5, 0.2]}\n  - {id: P3}\n",
+      "site.yaml");
+  ASSERT_EQ(s.tags.size(), 3u);
+  EXPECT_TRUE(s.tags[0].has_start());
+  EXPECT_EQ(s.tags[0].start_position, Eigen::Vector3d(2, 3, 1.1));  // z: the carrying height
+  EXPECT_DOUBLE_EQ(s.tags[0].start_heading_rad, M_PI / 2);
+  EXPECT_EQ(s.tags[1].start_position, Eigen::Vector3d(4, 5, 0.2));
+  EXPECT_TRUE(std::isnan(s.tags[1].start_heading_rad));
+  EXPECT_FALSE(s.tags[2].has_start());
+  EXPECT_EQ(error_of("anchors: []\ntags:\n  - {id: P1, start_position: [1]}\n"),
+            "site.yaml:3: tags[0].start_position: expected a list of 3 numbers [x, y, z]");
+  EXPECT_EQ(error_of("anchors: []\ntags:\n  - {id: P1, start_heading_deg: 400}\n"),
+            "site.yaml:3: tags[0].start_heading_deg: must be in [-360, 360]");
 }
 
 TEST(SiteErrors, EmptyTagIdAndDuplicateStation) {
