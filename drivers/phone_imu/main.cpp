@@ -1,0 +1,580 @@
+// ips-phone-imu: phones streaming their inertial sensors -> imu_t on IMU, phone time mapped to
+// host time. Live: UDP datagrams of CSV rows (IMU+GPS-Stream, HyperIMU; csv_row.hpp) and/or HTTP
+// POSTs of Sensor Logger JSON batches (sensor_logger_json.hpp, http_server.hpp). --file imports a
+// recorded file of semicolon-separated rows with ms times onto the bus or into a log (--out).
+// Apps, settings, formats, time mapping: docs/hardware/phone.md.
+#include <spdlog/spdlog.h>
+#include <sys/stat.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <lcm/lcm-cpp.hpp>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "core/channels.hpp"
+#include "core/cli.hpp"
+#include "core/device_text.hpp"
+#include "core/lcm_url.hpp"
+#include "core/line_buffer.hpp"
+#include "core/node.hpp"
+#include "core/progress.hpp"
+#include "core/text_escape.hpp"
+#include "drivers/phone_imu/csv_row.hpp"
+#include "drivers/phone_imu/error_limiter.hpp"
+#include "drivers/phone_imu/http_server.hpp"
+#include "drivers/phone_imu/phone_streams.hpp"
+#include "drivers/phone_imu/sensor_logger_json.hpp"
+#include "drivers/phone_imu/udp_socket.hpp"
+
+namespace {
+
+using namespace ips::phone_imu;
+
+constexpr const char* kProgram = "ips-phone-imu";
+constexpr int64_t kFileReasonsLogged = 20;
+
+bool valid_device_id(std::string_view id) {
+  if (id.empty() || id.size() > 64) return false;
+  for (char c : id)
+    if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '.' || c == ':' ||
+          c == '-'))
+      return false;
+  return true;
+}
+
+bool valid_ipv4(const std::string& a) {
+  unsigned b[4];
+  char extra;
+  if (std::sscanf(a.c_str(), "%3u.%3u.%3u.%3u%c", &b[0], &b[1], &b[2], &b[3], &extra) != 4)
+    return false;
+  return b[0] < 256 && b[1] < 256 && b[2] < 256 && b[3] < 256;
+}
+
+struct Settings {
+  RowFormat udp_format, file_format;
+  JsonSensorNames json_names;
+  PhoneStreamsConfig streams;
+  std::string device_id;  // --device-id, empty: from the sender
+  std::string udp_bind = "127.0.0.1", http_bind = "127.0.0.1";
+  int udp_port = 0, http_port = 0;
+  size_t max_datagram_bytes = 4096;
+  HttpServerOptions http;
+};
+
+// --- live: UDP and HTTP ----------------------------------------------------------------------
+
+class Live {
+ public:
+  Live(ips::Node& node, const Settings& s)
+      : node_(node),
+        s_(s),
+        channel_(node.options().channel(ips::channel::kImu)),
+        streams_(s.streams, [this](const ips::imu_t& m) { node_.publish(channel_, m); }) {}
+
+  void bad(const std::string& kind, const std::string& text, int64_t n = 1) {
+    node_.counters().parse_errors += n;
+    if (auto line = limiter_.admit(kind, text, ips::wall_utime_now())) node_.report_error(*line);
+  }
+  void dropped(const std::string& kind, const std::string& text, int64_t n) {
+    node_.counters().drops += n;
+    if (auto line = limiter_.admit(kind, text, ips::wall_utime_now())) node_.report_error(*line);
+  }
+
+  void publish_batch(const std::string& device, int64_t host_us, std::vector<SensorSample>& b) {
+    const BatchResult r = streams_.on_batch(device, host_us, b);
+    if (r.clock_reset)
+      spdlog::info("{}: {}: phone clock jumped; time mapping restarted (offset {:.6f} s)",
+                   kProgram, device, static_cast<double>(r.offset_us) * 1e-6);
+    if (r.dropped > 0)
+      dropped("assembler", device + ": " + std::to_string(r.dropped) +
+                               " reading(s) dropped: not newer than the last, or time not mappable",
+              r.dropped);
+  }
+
+  void on_datagram(std::string_view d, const std::string& sender, int64_t host_us) {
+    ++node_.counters().msgs_in;
+    batch_.clear();
+    int64_t bad_rows = 0;
+    std::string first;
+    size_t start = 0;
+    while (start < d.size()) {
+      size_t end = d.find('\n', start);
+      if (end == std::string_view::npos) end = d.size();
+      std::string_view row = d.substr(start, end - start);
+      start = end + 1;
+      while (!row.empty() && (row.back() == '\r' || row.back() == ' ')) row.remove_suffix(1);
+      if (row.empty()) continue;
+      const RowParse p = parse_row(row, s_.udp_format);
+      if (!p.ok) {
+        if (bad_rows++ == 0) first = p.reason;
+        continue;
+      }
+      batch_.insert(batch_.end(), p.samples.begin(), p.samples.begin() + p.count);
+    }
+    if (bad_rows > 0) bad("udp", "skipped datagram row from " + sender + ": " + first, bad_rows);
+    publish_batch(s_.device_id.empty() ? sender : s_.device_id, host_us, batch_);
+  }
+
+  HttpReply on_post(const HttpRequest& r, const std::string& peer, int64_t host_us) {
+    ++node_.counters().msgs_in;
+    JsonBatch b = parse_sensor_logger_batch(r.body, s_.json_names);
+    if (!b.ok) {
+      bad("json", "refused POST from " + peer + ": " + b.reason);
+      return {400, "{\"status\":\"error\",\"reason\":" + ips::json_quote(b.reason) + "}"};
+    }
+    if (b.bad_entries > 0)
+      bad("json", "skipped payload entries from " + peer + ": " + b.first_bad, b.bad_entries);
+    const std::string device = !s_.device_id.empty()          ? s_.device_id
+                               : valid_device_id(b.device_id) ? b.device_id
+                                                              : peer;
+    const int64_t accepted = static_cast<int64_t>(b.samples.size());
+    publish_batch(device, host_us, b.samples);
+    return {200, "{\"status\":\"ok\",\"accepted\":" + std::to_string(accepted) +
+                     ",\"rejected\":" + std::to_string(b.bad_entries) + "}"};
+  }
+
+  void on_refused(int status, const std::string& reason, const std::string& peer) {
+    ++node_.counters().msgs_in;
+    const std::string text = "HTTP " + std::to_string(status) + " to " + peer + ": " + reason;
+    if (status == 404 || status == 405 || status == 503) dropped("http", text, 1);
+    else bad("http", text);
+  }
+
+ private:
+  ips::Node& node_;
+  const Settings& s_;
+  std::string channel_;
+  PhoneStreams streams_;
+  ErrorLimiter limiter_;
+  std::vector<SensorSample> batch_;
+};
+
+int run_live(const ips::CommonOptions& opts, Settings& s) {
+  ips::Node node(kProgram, opts);
+  s.streams.source = kProgram;
+  Live live(node, s);
+  std::unique_ptr<UdpSocket> udp;
+  std::unique_ptr<HttpServer> http;
+  std::string error;
+  if (s.udp_port > 0) {
+    udp = std::make_unique<UdpSocket>(
+        node, s.max_datagram_bytes,
+        UdpSocket::Callbacks{
+            .on_datagram =
+                [&](std::string_view d, const std::string& sender, ips::utime_t t) {
+                  live.on_datagram(d, sender, t);
+                },
+            .on_dropped =
+                [&](int64_t n) {
+                  live.dropped("udp-queue",
+                               std::to_string(n) + " datagram(s) dropped: receive queue full", n);
+                },
+            .on_truncated =
+                [&](const std::string& sender) {
+                  ++node.counters().msgs_in;
+                  live.bad("udp", "skipped datagram from " + sender + ": longer than " +
+                                      std::to_string(s.max_datagram_bytes) + " bytes");
+                },
+        });
+    if (!udp->open(s.udp_bind, static_cast<uint16_t>(s.udp_port), error)) {
+      ips::print_fatal(kProgram, "--udp-port: " + error);
+      return 1;
+    }
+    spdlog::info("{}: CSV datagrams on UDP {}:{}", kProgram, s.udp_bind, udp->bound_port());
+  }
+  if (s.http_port > 0) {
+    s.http.addr = s.http_bind;
+    s.http.port = static_cast<uint16_t>(s.http_port);
+    http = std::make_unique<HttpServer>(
+        node, s.http,
+        HttpServer::Callbacks{
+            .on_post = [&](const HttpRequest& r, const std::string& peer,
+                           ips::utime_t t) { return live.on_post(r, peer, t); },
+            .on_refused = [&](int status, const std::string& reason,
+                              const std::string& peer) { live.on_refused(status, reason, peer); },
+        });
+    if (!http->open(error)) {
+      ips::print_fatal(kProgram, "--http-port: " + error);
+      return 1;
+    }
+    spdlog::info("{}: Sensor Logger HTTP push on http://{}:{}{}", kProgram, s.http_bind,
+                 http->bound_port(), s.http.path);
+  }
+  const int rc = node.run();
+  http.reset();
+  udp.reset();
+  return rc;
+}
+
+// --- file import -----------------------------------------------------------------------------
+
+struct FileCounts {
+  int64_t lines = 0, rows = 0, published = 0, bad = 0, dropped = 0, header = 0;
+};
+
+// Reads the file's rows and hands every reading on through one PhoneStreams with a fixed offset:
+// --file-start-s puts the first row at that Unix time, else the times are taken as Unix epoch.
+template <class Publish, class Between>
+bool import_rows(std::FILE* file, int64_t size, const Settings& s,
+                 const std::optional<double>& start_s, const std::string& device,
+                 const std::string& source, Publish&& publish, Between&& between,
+                 FileCounts& counts) {
+  std::unique_ptr<PhoneStreams> streams;
+  ips::ProgressLine progress(kProgram);
+  ips::LineBuffer lines;
+  std::vector<char> buf(1 << 16);
+  std::vector<SensorSample> batch;
+  int64_t offset = 0;
+  double fraction = 0;
+  bool go_on = true;
+  auto on_line = [&](std::string_view line) {
+    if (!go_on) return;
+    ++counts.lines;
+    const RowParse p = parse_row(line, s.file_format);
+    if (!p.ok) {
+      // A first line that starts with a word is the app's header.
+      if (counts.lines == 1 && !line.empty() && std::isalpha(static_cast<unsigned char>(line[0]))) {
+        ++counts.header;
+        return;
+      }
+      if (++counts.bad <= kFileReasonsLogged)
+        spdlog::warn("{}: line {}: {}", kProgram, counts.lines, p.reason);
+      return;
+    }
+    ++counts.rows;
+    if (!streams) {
+      PhoneStreamsConfig c = s.streams;
+      c.source = source;
+      c.fixed_offset_us = start_s ? ips::s_to_utime(*start_s) - p.device_us : 0;
+      streams = std::make_unique<PhoneStreams>(c, publish);
+    }
+    batch.assign(p.samples.begin(), p.samples.begin() + p.count);
+    const BatchResult r = streams->on_batch(device, 0, batch);
+    counts.published += r.published;
+    counts.dropped += r.dropped;
+    progress.update(fraction, counts.published);
+    go_on = between();
+  };
+  for (;;) {
+    const size_t n = std::fread(buf.data(), 1, buf.size(), file);
+    if (n == 0) break;
+    offset += static_cast<int64_t>(n);
+    fraction = size > 0 ? static_cast<double>(offset) / static_cast<double>(size) : 1;
+    lines.feed(std::string_view(buf.data(), n), on_line);
+    if (!go_on) return false;
+  }
+  const std::string rest = lines.take_partial();
+  if (!rest.empty()) on_line(rest);
+  counts.bad += lines.overlong_lines();
+  if (!go_on) return false;
+  progress.finish();
+  return true;
+}
+
+void summarise(const FileCounts& c, const std::string& where) {
+  if (c.bad > kFileReasonsLogged)
+    spdlog::warn("{}: ... and {} more bad lines", kProgram, c.bad - kFileReasonsLogged);
+  spdlog::info("{}: file: {} lines ({} header), {} messages {}, {} bad lines, {} readings dropped",
+               kProgram, c.lines, c.header, c.published, where, c.bad, c.dropped);
+  if (c.dropped > 0 && c.published == 0)
+    spdlog::warn("{}: no reading could be placed in time: are the times Unix epoch in "
+                 "--file-time-unit? Otherwise give --file-start-s",
+                 kProgram);
+}
+
+int write_log(std::FILE* file, int64_t size, const std::string& out_path,
+              const ips::CommonOptions& opts, const Settings& s,
+              const std::optional<double>& start_s, const std::string& device,
+              const std::string& source) {
+  lcm::LogFile log(out_path, "w");
+  if (!log.good()) {
+    ips::print_fatal(kProgram, "--out: cannot write '" + ips::printable(out_path) + "'");
+    return 1;
+  }
+  const std::string channel = opts.channel(ips::channel::kImu);
+  std::vector<uint8_t> buf;
+  bool write_failed = false;
+  int64_t eventnum = 0;
+  FileCounts counts;
+  import_rows(
+      file, size, s, start_s, device, source,
+      [&](const ips::imu_t& m) {
+        buf.resize(static_cast<size_t>(m.getEncodedSize()));
+        m.encode(buf.data(), 0, static_cast<int>(buf.size()));
+        lcm::LogEvent le;
+        le.eventnum = eventnum++;
+        le.timestamp = m.utime;
+        le.channel = channel;
+        le.datalen = static_cast<int32_t>(buf.size());
+        le.data = buf.data();
+        if (log.writeEvent(&le) != 0) write_failed = true;
+      },
+      [&] { return !write_failed; }, counts);
+  if (write_failed || std::fflush(log.getFilePtr()) != 0 || std::ferror(log.getFilePtr())) {
+    ips::print_fatal(kProgram, "write to '" + ips::printable(out_path) + "' failed (disk full?)");
+    return 1;
+  }
+  summarise(counts, "written to " + out_path);
+  return 0;
+}
+
+int publish_file(std::FILE* file, int64_t size, const ips::CommonOptions& opts,
+                 const Settings& s, const std::optional<double>& start_s,
+                 const std::string& device, const std::string& source, double speed) {
+  ips::Node node(kProgram, opts);
+  const std::string channel = opts.channel(ips::channel::kImu);
+  bool first = true, stopped = false;
+  int64_t utime0 = 0;
+  auto wall0 = std::chrono::steady_clock::now();
+  FileCounts counts;
+  int64_t bad_seen = 0;
+  import_rows(
+      file, size, s, start_s, device, source,
+      [&](const ips::imu_t& m) {
+        if (stopped) return;
+        if (first) {
+          first = false;
+          utime0 = m.utime;
+          wall0 = std::chrono::steady_clock::now();
+        }
+        // Paced by the file's own times: message k goes out (utime_k - utime_0) / speed after
+        // the first; a time earlier than one already sent goes out at once.
+        if (speed > 0) {
+          const auto due = wall0 + std::chrono::microseconds(static_cast<int64_t>(
+                                       static_cast<double>(m.utime - utime0) / speed));
+          for (;;) {
+            const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(
+                                  due - std::chrono::steady_clock::now())
+                                  .count();
+            if (left <= 0) break;
+            if (!node.spin_once(static_cast<int>(std::min<int64_t>(left, 100)))) {
+              stopped = true;
+              return;
+            }
+          }
+        }
+        if (!node.spin_once(0)) {
+          stopped = true;
+          return;
+        }
+        node.publish(channel, m);
+      },
+      [&] {
+        node.counters().msgs_in = counts.lines;
+        node.counters().parse_errors += counts.bad - bad_seen;
+        bad_seen = counts.bad;
+        return !stopped;
+      },
+      counts);
+  if (stopped) return 0;  // SIGINT/SIGTERM
+  node.counters().msgs_in = counts.lines;
+  node.counters().parse_errors = counts.bad;
+  node.counters().drops = counts.dropped;
+  if (counts.bad > 0) node.report_error("file: " + std::to_string(counts.bad) + " bad lines");
+  node.publish_health();
+  summarise(counts, "published");
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{
+      "ips-phone-imu: phones streaming their inertial sensors, published as imu_t on IMU with the "
+      "phone's time mapped to host time. --udp-port: CSV datagrams (IMU+GPS-Stream, HyperIMU); "
+      "--http-port: Sensor Logger HTTP Push JSON; --file: a recorded file of semicolon-separated "
+      "rows with ms times, onto the bus or into an LCM log (--out). Details: "
+      "docs/hardware/phone.md.",
+      kProgram};
+  ips::CommonOptions opts;
+  ips::add_common_options(app, opts, {.lcm = true, .site = false, .channels = true});
+  Settings s;
+  std::string columns = "tagged", file_columns = "t,ax,ay,az,gx,gy,gz,mx,my,mz";
+  std::string udp_time = "s", file_time = "ms", accel_unit = "m/s2", gyro_unit = "rad/s",
+              mag_unit = "uT", assemble = "accel", file_path, out_path;
+  double pair_window_s = 0.05, speed = 1.0, start_s = 0;
+  bool as_fast = false;
+  auto* o_udp = app.add_option("--udp-port", s.udp_port, "receive CSV datagrams on this UDP port")
+                    ->check(CLI::Range(1, 65535));
+  auto* o_udp_bind = app.add_option("--udp-bind", s.udp_bind,
+                                    "address to receive datagrams on (0.0.0.0: every interface, "
+                                    "for phones on the Wi-Fi)")
+                         ->capture_default_str()
+                         ->type_name("ADDR");
+  auto* o_columns = app.add_option("--columns", columns,
+                                   "datagram columns: tagged (IMU+GPS-Stream: time, id, x, y, z, "
+                                   "...) or names, e.g. t,ax,ay,az,gx,gy,gz,mx,my,mz (HyperIMU)")
+                        ->capture_default_str();
+  auto* o_udp_time = app.add_option("--udp-time-unit", udp_time,
+                                    "unit of the datagrams' time: s, ms, us, ns")
+                         ->capture_default_str();
+  auto* o_max_dgram = app.add_option("--max-datagram-bytes", s.max_datagram_bytes,
+                                     "longer datagrams are skipped and counted")
+                          ->capture_default_str()
+                          ->check(CLI::Range(64, 65507));
+  auto* o_http = app.add_option("--http-port", s.http_port,
+                                "accept Sensor Logger HTTP Push POSTs on this TCP port")
+                     ->check(CLI::Range(1, 65535));
+  auto* o_http_bind = app.add_option("--http-bind", s.http_bind,
+                                     "address to listen on (0.0.0.0: every interface, for phones "
+                                     "on the Wi-Fi)")
+                          ->capture_default_str()
+                          ->type_name("ADDR");
+  auto* o_path = app.add_option("--http-path", s.http.path, "the path the app POSTs to")
+                     ->capture_default_str();
+  auto* o_body = app.add_option("--max-body-bytes", s.http.limits.max_body_bytes,
+                                "larger POST bodies are refused with 413")
+                     ->capture_default_str()
+                     ->check(CLI::Range(1024, 64 << 20));
+  auto* o_conns = app.add_option("--max-connections", s.http.max_connections,
+                                 "HTTP connections at once (more are refused with 503)")
+                      ->capture_default_str()
+                      ->check(CLI::Range(1, 256));
+  auto* o_jacc = app.add_option("--json-accel", s.json_names.accel,
+                                "Sensor Logger entry read as the accelerometer (with gravity)")
+                     ->capture_default_str();
+  auto* o_jgyr = app.add_option("--json-gyro", s.json_names.gyro,
+                                "Sensor Logger entry read as the gyroscope")
+                     ->capture_default_str();
+  auto* o_jmag = app.add_option("--json-mag", s.json_names.mag,
+                                "Sensor Logger entry read as the magnetometer")
+                     ->capture_default_str();
+  auto* o_file = app.add_option("--file", file_path,
+                                "import a recorded file (semicolon-separated rows, ms times)")
+                     ->type_name("FILE");
+  auto* o_fcols = app.add_option("--file-columns", file_columns,
+                                 "the file's columns (names as for --columns)")
+                      ->capture_default_str();
+  auto* o_ftime = app.add_option("--file-time-unit", file_time, "unit of the file's time")
+                      ->capture_default_str();
+  auto* o_start = app.add_option("--file-start-s", start_s,
+                                 "Unix time (s) of the file's first row, when its times are not "
+                                 "Unix epoch (e.g. time since boot)");
+  auto* o_out = app.add_option("--out", out_path,
+                               "--file: write a standard LCM log as fast as possible instead of "
+                               "publishing")
+                    ->type_name("FILE.lcm");
+  auto* o_speed = app.add_option("--speed", speed, "--file: playback speed factor")
+                      ->capture_default_str()
+                      ->check(CLI::Range(1e-3, 1e6));
+  auto* o_fast = app.add_flag("--as-fast-as-possible", as_fast, "--file: publish without pacing");
+  app.add_option("--accel-unit", accel_unit, "UDP and file accelerometer unit: m/s2 or g")
+      ->capture_default_str();
+  app.add_option("--gyro-unit", gyro_unit, "UDP and file gyroscope unit: rad/s or deg/s")
+      ->capture_default_str();
+  app.add_option("--mag-unit", mag_unit, "UDP and file magnetometer unit: uT or mG")
+      ->capture_default_str();
+  app.add_option("--assemble", assemble,
+                 "accel: one message per accelerometer reading with the latest gyroscope and "
+                 "magnetometer; per-sample: one per reading, the others NaN")
+      ->capture_default_str();
+  app.add_option("--pair-window-s", pair_window_s,
+                 "accel: gyroscope/magnetometer readings older than this are NaN")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 10.0));
+  app.add_option("--clock-window-s", s.streams.clock.window_s,
+                 "time mapping: sliding window of the minimum-delay offset")
+      ->capture_default_str()
+      ->check(CLI::Range(1.0, 600.0));
+  app.add_option("--clock-jump-s", s.streams.clock.jump_s,
+                 "time mapping: an offset change larger than this is a phone clock jump")
+      ->capture_default_str()
+      ->check(CLI::Range(0.1, 3600.0));
+  auto* o_dev = app.add_option("--device-id", s.device_id,
+                               "device_id of every message (default: the JSON deviceId or the "
+                               "sender's address; for --file: phone)")
+                    ->type_name("ID");
+  o_speed->excludes(o_fast);
+  o_out->excludes(o_speed);
+  o_out->excludes(o_fast);
+  if (auto* url_opt = app.get_option_no_throw("--lcm-url")) o_out->excludes(url_opt);
+  int rc = 0;
+  if (!ips::parse_command_line(app, opts, argc, argv, rc)) return rc;
+
+  auto usage_error = [](const std::string& what) {
+    ips::print_fatal(kProgram, what + " (see --help)");
+    return 2;
+  };
+  const bool file = o_file->count() > 0;
+  const bool live = o_udp->count() > 0 || o_http->count() > 0;
+  if (file && live) return usage_error("--file excludes --udp-port and --http-port");
+  if (!file && !live) return usage_error("give --udp-port and/or --http-port, or --file");
+  if (!file)
+    for (const auto* o : {o_fcols, o_ftime, o_start, o_out, o_speed, o_fast})
+      if (o->count() > 0) return usage_error(o->get_name() + " goes with --file");
+  if (o_udp->count() == 0)
+    for (const auto* o : {o_udp_bind, o_columns, o_udp_time, o_max_dgram})
+      if (o->count() > 0) return usage_error(o->get_name() + " goes with --udp-port");
+  if (o_http->count() == 0)
+    for (const auto* o : {o_http_bind, o_path, o_body, o_conns, o_jacc, o_jgyr, o_jmag})
+      if (o->count() > 0) return usage_error(o->get_name() + " goes with --http-port");
+  UnitScales units;
+  if (!accel_scale_from_name(accel_unit, units.accel))
+    return usage_error("--accel-unit: expected m/s2 or g, got '" + ips::printable(accel_unit) +
+                       "'");
+  if (!gyro_scale_from_name(gyro_unit, units.gyro))
+    return usage_error("--gyro-unit: expected rad/s or deg/s, got '" + ips::printable(gyro_unit) +
+                       "'");
+  if (!mag_scale_from_name(mag_unit, units.mag))
+    return usage_error("--mag-unit: expected uT or mG, got '" + ips::printable(mag_unit) + "'");
+  s.udp_format.units = s.file_format.units = units;
+  if (const auto u = time_unit_from_name(udp_time)) s.udp_format.time_unit = *u;
+  else return usage_error("--udp-time-unit: expected s, ms, us or ns, got '" +
+                          ips::printable(udp_time) + "'");
+  if (const auto u = time_unit_from_name(file_time)) s.file_format.time_unit = *u;
+  else return usage_error("--file-time-unit: expected s, ms, us or ns, got '" +
+                          ips::printable(file_time) + "'");
+  s.udp_format.separator = ',';
+  s.file_format.separator = ';';
+  if (const std::string why = parse_column_mapping(columns, s.udp_format); !why.empty())
+    return usage_error("--columns: " + why);
+  if (const std::string why = parse_column_mapping(file_columns, s.file_format); !why.empty())
+    return usage_error("--file-columns: " + why);
+  if (assemble != "accel" && assemble != "per-sample")
+    return usage_error("--assemble: expected accel or per-sample, got '" +
+                       ips::printable(assemble) + "'");
+  s.streams.assembler.per_sample = assemble == "per-sample";
+  s.streams.assembler.window_us = ips::s_to_utime(pair_window_s);
+  if (o_dev->count() > 0 && !valid_device_id(s.device_id))
+    return usage_error("--device-id: '" + ips::printable(s.device_id) +
+                       "' is not 1 to 64 of A-Za-z0-9_.:-");
+  for (const auto& [name, addr] : {std::pair{"--udp-bind", s.udp_bind},
+                                   std::pair{"--http-bind", s.http_bind}})
+    if (!valid_ipv4(addr))
+      return usage_error(std::string(name) + ": '" + ips::printable(addr) +
+                         "' is not an IPv4 address (e.g. 127.0.0.1 or 0.0.0.0)");
+  if (s.http.path.empty() || s.http.path[0] != '/' || !ips::printable_ascii(s.http.path) ||
+      s.http.path.find_first_of(" ?#") != std::string::npos)
+    return usage_error("--http-path: '" + ips::printable(s.http.path) +
+                       "' is not a path such as /data");
+  if (o_start->count() > 0 && !(start_s > 0 && start_s < 4e12))
+    return usage_error("--file-start-s: not a Unix time in seconds");
+
+  if (file) {
+    std::unique_ptr<std::FILE, int (*)(std::FILE*)> f(std::fopen(file_path.c_str(), "rb"),
+                                                      &std::fclose);
+    if (!f)
+      return usage_error("--file: cannot read '" + ips::printable(file_path) +
+                         "': " + std::strerror(errno));
+    struct stat st {};
+    if (fstat(fileno(f.get()), &st) != 0 || S_ISDIR(st.st_mode))
+      return usage_error("--file: '" + ips::printable(file_path) + "' is a directory");
+    const int64_t size = S_ISREG(st.st_mode) ? static_cast<int64_t>(st.st_size) : 0;
+    const std::optional<double> start = o_start->count() > 0 ? std::optional(start_s) : std::nullopt;
+    const std::string device = s.device_id.empty() ? "phone" : s.device_id;
+    const std::string source = std::string(kProgram) + ":file";
+    if (!out_path.empty())
+      return write_log(f.get(), size, out_path, opts, s, start, device, source);
+    return ips::run_reporting_errors(kProgram, [&] {
+      return publish_file(f.get(), size, opts, s, start, device, source, as_fast ? 0.0 : speed);
+    });
+  }
+  return ips::run_reporting_errors(kProgram, [&] { return run_live(opts, s); });
+}

@@ -1,0 +1,168 @@
+#!/usr/bin/env bash
+# ips-phone-imu end to end in a private network namespace: the real program receiving UDP CSV
+# datagrams (IMU+GPS-Stream format, from a python3 socket) and Sensor Logger HTTP Push POSTs
+# (python3 http.client) on loopback, real LCM multicast, the real lcm-logger recording.
+#  - exact IMU messages: values (deg/s -> rad/s with --gyro-unit deg/s on UDP), NaN for a sensor
+#    absent, device ids (sender address, JSON deviceId), device_utime = the phone's time, utime
+#    = phone time + offset within the send/receive bounds (each utime between the send time
+#    minus the smallest delay and the reception);
+#  - bad datagrams and a bad JSON body counted in HEALTH parse_errors with the reason in
+#    last_error; 404, 405, 413 (an oversized body refused before it is sent), 400 answered;
+#  - a flood of 20000 datagrams does not grow the resident memory by more than 8 MiB, and each
+#    of them is published or counted as dropped (receive queue full);
+#  - SIGINT ends the program with status 0.
+# Exit 77 (skipped) when no network namespace can be made here.
+set -euo pipefail
+BIN=$(cd "$1" && pwd)
+HERE=$(cd "$(dirname "$0")" && pwd)
+ROOT=$(cd "$HERE/../../.." && pwd)
+source "$ROOT/tests/integration/live_test_lib.sh"
+
+"$BIN/ips-bus-check" --timeout 3 || fail "multicast does not loop back inside the namespace"
+lcm-logger -q -f "$WORK/imu.lcm" & logger=$!; pids+=($logger)
+sleep 0.3
+"$BIN/ips-phone-imu" --udp-port 47001 --gyro-unit deg/s --http-port 47002 --max-body-bytes 65536 \
+  2>"$WORK/driver.err" & drv=$!; pids+=($drv)
+for ((i = 0; i < 100; i++)); do grep -q "HTTP push on" "$WORK/driver.err" 2>/dev/null && break; sleep 0.05; done
+
+python3 - "$WORK" "$drv" <<'PY' || fail "the sender: $(cat "$WORK/driver.err")"
+import http.client, json, socket, sys, time
+work, pid = sys.argv[1], int(sys.argv[2])
+udp = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+times = {}
+def send_udp(text):
+    t0 = time.time_ns() // 1000
+    udp.sendto(text.encode(), ('127.0.0.1', 47001))
+    return t0
+# Phone time since boot, in s; the gyroscope in deg/s.
+times['u1'] = send_udp('890.71558, 3, 0.076, 9.809, 0.565, 4, 90, -45, 180, 5, -21.660,-36.960,-28.140')
+time.sleep(0.05)
+times['u2'] = send_udp('890.76558, 3, 0.1, 9.8, 0.5')
+time.sleep(0.05)
+send_udp('890.8, 9, 1, 2, 3')        # unknown sensor id
+send_udp('not a datagram')            # bad time
+time.sleep(0.2)
+
+def post(path, body, method='POST'):
+    c = http.client.HTTPConnection('127.0.0.1', 47002, timeout=5)
+    c.request(method, path, body=body, headers={'Content-Type': 'application/json'})
+    r = c.getresponse()
+    out = (r.status, r.read().decode())
+    c.close()
+    return out
+batch = {'messageId': 0, 'sessionId': 's1', 'deviceId': 'pixel-7',
+         'payload': [
+             {'name': 'totalacceleration', 'time': 1698501144401773000,
+              'values': {'x': 0.25, 'y': 9.75, 'z': 0.5}},
+             {'name': 'gyroscope', 'time': 1698501144400000000,
+              'values': {'x': 0.01, 'y': 0.02, 'z': -0.03}},
+             {'name': 'location', 'time': 1698501144400000000, 'values': {'latitude': 50}},
+             {'name': 'totalacceleration', 'time': 1698501144411773000,
+              'values': {'x': 0.5, 'y': 9.5, 'z': 1.0}},
+             {'name': 'gyroscope', 'time': 1698501144412000000, 'values': {'x': 1}}]}
+times['h1'] = time.time_ns() // 1000
+st, body = post('/data', json.dumps(batch))
+assert (st, json.loads(body)) == (200, {'status': 'ok', 'accepted': 3, 'rejected': 1}), (st, body)
+st, body = post('/data', '{"payload": [1,')
+assert st == 400 and 'not JSON' in body, (st, body)
+assert post('/other', '{}')[0] == 404
+assert post('/data', None, method='GET')[0] == 405
+# Oversized: refused from its head, before the body is sent.
+s = socket.create_connection(('127.0.0.1', 47002))
+s.sendall(b'POST /data HTTP/1.1\r\nHost: x\r\nContent-Length: 2000000\r\n\r\n')
+reply = s.recv(4096).decode()
+s.close()
+assert reply.startswith('HTTP/1.1 413 Content Too Large\r\n'), reply
+
+def rss_kib():
+    for line in open(f'/proc/{pid}/status'):
+        if line.startswith('VmRSS:'):
+            return int(line.split()[1])
+time.sleep(0.3)
+before = rss_kib()
+for k in range(20000):
+    udp.sendto(b'%d.0, 3, 1, 2, 3, 4, 0, 0, 0' % (1000 + k), ('127.0.0.1', 47001))
+    if k % 200 == 0:
+        time.sleep(0.005)
+time.sleep(1.0)
+# The kernel reports queue drops with the next datagram received: one more, after a pause.
+udp.sendto(b'999.0, 3, 1, 2, 3', ('127.0.0.1', 47001))
+time.sleep(0.2)
+after = rss_kib()
+json.dump({'times': times, 'rss_before': before, 'rss_after': after}, open(f'{work}/sent.json', 'w'))
+assert after - before < 8192, f'RSS grew from {before} to {after} KiB during the flood'
+PY
+sleep 1.2
+stop $drv ips-phone-imu
+sleep 0.3
+stop $logger lcm-logger
+
+python3 - "$WORK" <<'PY' || fail "published messages or HEALTH"
+import json, math, sys
+from lcm_log import events
+from lcm_messages import _Reader, health
+work = sys.argv[1]
+sent = json.load(open(f'{work}/sent.json'))
+def imu(data):  # imu_t in declaration order (lcmtypes/imu_t.lcm)
+    r = _Reader(data)
+    return dict(utime=r.take('q'), source=r.string(), device_id=r.string(),
+                device_utime=r.take('q'), accel=[r.take('d') for _ in range(3)],
+                gyro=[r.take('d') for _ in range(3)], mag=[r.take('d') for _ in range(3)])
+log, _, _ = events(f'{work}/imu.lcm')
+msgs = [imu(d) for ch, _, d in log if ch == 'IMU']
+udp = [m for m in msgs if m['device_id'] == '127.0.0.1']
+web = [m for m in msgs if m['device_id'] == 'pixel-7']
+hb = [health(d) for ch, _, d in log if ch == 'HEALTH']
+hb = [h for h in hb if h['source'] == 'ips-phone-imu']
+last = hb[-1]
+# The flood: every datagram published or counted as dropped by the kernel (receive queue full).
+# (lcm-logger itself may miss some of a flood on the bus: counted from HEALTH, not the log.)
+kernel_drops = last['drops'] - 2 - 1  # less the 404, the 405 and the probe
+flood_in = last['msgs_in'] - 4 - 5 - 1  # less the 4 datagrams before, 5 HTTP requests, the probe
+assert flood_in + kernel_drops == 20000, last
+assert flood_in >= 10000, f'only {flood_in} of the flood received'
+# The probe's time (999 s) is older than the flood's: not newer, dropped by the assembler.
+assert last['msgs_out'] == 2 + 2 + flood_in, last
+flood = [m for m in udp if m['device_utime'] >= 1000000000]
+assert len(flood) >= 1000 and all(m['accel'] == [1, 2, 3] and m['gyro'] == [0, 0, 0] for m in flood)
+udp = [m for m in udp if m['device_utime'] < 1000000000]
+assert len(udp) == 2, udp
+assert all(m['source'] == 'ips-phone-imu' for m in msgs)
+u1, u2 = udp[0], udp[1]
+assert u1['device_utime'] == 890715580 and u2['device_utime'] == 890765580, (u1, u2)
+assert u1['accel'] == [0.076, 9.809, 0.565], u1
+assert u1['gyro'] == [math.pi / 2, -math.pi / 4, math.pi], u1['gyro']
+assert u1['mag'] == [-21.66, -36.96, -28.14], u1
+# u2 has no gyroscope or magnetometer of its own; 50 ms after u1's: within the 50 ms window.
+assert u2['gyro'] == u1['gyro'] and u2['mag'] == u1['mag'], u2
+# Time mapping: the offset is the least delay so far; utime never after the reception and not
+# before the send.
+t = sent['times']
+assert t['u1'] <= u1['utime'] <= t['u1'] + 200000, (t['u1'], u1['utime'])
+# (The phone times are 50 ms apart, the sends a little more: u2 maps to about u1 + 50 ms.)
+assert t['u1'] + 30000 <= u2['utime'] <= t['u2'] + 200000, (t, u2['utime'])
+# 50 ms apart on the phone; the offset may only have come down (a quicker reading) in between.
+assert 30000 <= u2['utime'] - u1['utime'] <= 50000, (u1['utime'], u2['utime'])
+assert len(web) == 2, web
+w1, w2 = web
+assert w1['device_utime'] == 1698501144401773 and w2['device_utime'] == 1698501144411773
+assert w1['accel'] == [0.25, 9.75, 0.5] and w1['gyro'] == [0.01, 0.02, -0.03], w1
+assert all(math.isnan(v) for v in w1['mag']), w1
+assert w2['gyro'] == [0.01, 0.02, -0.03], w2  # the bad later gyroscope entry was skipped
+assert t['h1'] <= w2['utime'] <= t['h1'] + 500000, (t['h1'], w2['utime'])
+assert w2['utime'] - w1['utime'] == 10000
+# Parse errors: 2 datagrams, 1 JSON entry, 1 JSON body, the 413. Drops: 404 and 405.
+assert last['parse_errors'] == 5, last
+errors = {h['last_error'] for h in hb}
+assert 'HTTP 404 to 127.0.0.1: no such path /other (POST to /data)' in errors, errors
+print(f"ok: IMU messages exact; HEALTH parse_errors 5, flood {flood_in} in + {kernel_drops} dropped; "
+      f"RSS {sent['rss_before']} -> {sent['rss_after']} KiB over 20000 datagrams")
+PY
+# The two bad datagrams came within a second: one report (rate limit per kind), both counted.
+grep -q "skipped datagram row from 127.0.0.1: unknown sensor id 9" "$WORK/driver.err" &&
+  ! grep -q "not a datagram" "$WORK/driver.err" ||
+  fail "the bad datagrams' report: $(cat "$WORK/driver.err")"
+# 404, 405 and 413 came within a second: the first reported, the others counted.
+grep -q "HTTP 404 to 127.0.0.1: no such path /other (POST to /data)" "$WORK/driver.err" &&
+  ! grep -q "HTTP 413" "$WORK/driver.err" ||
+  fail "the HTTP refusals' report: $(cat "$WORK/driver.err")"

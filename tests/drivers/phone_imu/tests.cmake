@@ -1,0 +1,36 @@
+# ips-phone-imu: the row, JSON and HTTP request parsers, the clock offset, the assembler, fuzzing,
+# and the program end to end (UDP + HTTP in a private network namespace), a file import and its
+# start-up errors. Paths relative to tests/.
+ips_unit_test(phone_imu_test
+  drivers/phone_imu/csv_row_test.cpp
+  drivers/phone_imu/sensor_logger_json_test.cpp
+  drivers/phone_imu/http_request_test.cpp
+  drivers/phone_imu/clock_offset_test.cpp
+  drivers/phone_imu/imu_assembler_test.cpp
+)
+target_link_libraries(phone_imu_test PRIVATE ips_phone_imu)
+
+ips_fuzz_target(phone_imu_rows drivers/phone_imu/phone_imu_rows_fuzz.cpp ips_phone_imu)
+ips_fuzz_target(phone_imu_http drivers/phone_imu/phone_imu_http_fuzz.cpp ips_phone_imu)
+
+# The program with a UDP sender and an HTTP client in a private network namespace: exact IMU
+# messages, time mapping bounds, parse errors in HEALTH, 404/405/413, a 20000-datagram flood
+# without memory growth, SIGINT status 0; lcm-logger records.
+add_test(NAME phone_imu_live_netns
+         COMMAND ${CMAKE_CURRENT_SOURCE_DIR}/drivers/phone_imu/phone_imu_live_netns.sh
+                 ${CMAKE_RUNTIME_OUTPUT_DIRECTORY})
+set_tests_properties(phone_imu_live_netns PROPERTIES LABELS integration TIMEOUT 60
+                                                     SKIP_RETURN_CODE 77 RESOURCE_LOCK cpu_heavy)
+
+# --file: a recorded file to an exact LCM log (--out) and onto the bus (--as-fast-as-possible).
+add_test(NAME phone_imu_file_import
+         COMMAND ${CMAKE_CURRENT_SOURCE_DIR}/drivers/phone_imu/phone_imu_file_import.sh
+                 ${CMAKE_RUNTIME_OUTPUT_DIRECTORY})
+set_tests_properties(phone_imu_file_import PROPERTIES LABELS integration TIMEOUT 60
+                                                      SKIP_RETURN_CODE 77 RESOURCE_LOCK cpu_heavy)
+
+# Start-up errors: one line, status 2.
+add_test(NAME phone_imu_cli_errors
+         COMMAND ${CMAKE_CURRENT_SOURCE_DIR}/drivers/phone_imu/phone_imu_cli_errors.sh
+                 ${CMAKE_RUNTIME_OUTPUT_DIRECTORY})
+set_tests_properties(phone_imu_cli_errors PROPERTIES LABELS integration TIMEOUT 30)
