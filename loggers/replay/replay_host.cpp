@@ -17,9 +17,10 @@ constexpr const char* kUwbTwr = "uwb_twr";
 constexpr const char* kUwbTdoa = "uwb_tdoa";
 constexpr const char* kAoa = "aoa";
 constexpr const char* kPdr = "pdr";
+constexpr const char* kIns = "ins";
 }
 
-std::vector<std::string> ReplayHost::available() { return {kUwbTwr, kUwbTdoa, kAoa, kPdr}; }
+std::vector<std::string> ReplayHost::available() { return {kUwbTwr, kUwbTdoa, kAoa, kPdr, kIns}; }
 
 ReplayHost::ReplayHost(const ReplayOptions& opts, const CommonOptions& channels, Sink sink)
     : channels_(channels), sink_(std::move(sink)), opts_(opts) {
@@ -59,6 +60,11 @@ ReplayHost::ReplayHost(const ReplayOptions& opts, const CommonOptions& channels,
     produced_channels_.insert(steps);
     produced_channels_.insert(poses);
   }
+  if (wanted(kIns)) {
+    const std::string out = channels_.channel(channel::kPoseIns);
+    ins_ = std::make_unique<ins::InsEstimator>([this, out](const pose_t& p) { emit(out, p); });
+    produced_channels_.insert(out);
+  }
   if (!opts_.site_path.empty()) apply_site(load_site_file(opts_.site_path));
 }
 
@@ -68,6 +74,7 @@ std::vector<std::string> ReplayHost::hosted() const {
   if (tdoa_) names.push_back(kUwbTdoa);
   if (aoa_) names.push_back(kAoa);
   if (pdr_) names.push_back(kPdr);
+  if (ins_) names.push_back(kIns);
   return names;
 }
 
@@ -84,6 +91,7 @@ void ReplayHost::apply_site(const Site& site) {
   if (tdoa_) tdoa_->set_site(site);
   if (aoa_) aoa_->set_site(site);
   if (pdr_) pdr_->set_site(site);
+  if (ins_) ins_->set_site(site);
 }
 
 void ReplayHost::finish() {
@@ -136,13 +144,14 @@ void ReplayHost::process(const std::string& channel, int64_t timestamp, const ui
       return;
     }
     aoa_->on_event(m);
-  } else if (pdr_ && channel == channels_.channel(channel::kImu)) {
+  } else if ((pdr_ || ins_) && channel == channels_.channel(channel::kImu)) {
     imu_t m;
     if (!decode_message(m, data, size)) {
       ++stats_.undecodable;
       return;
     }
-    pdr_->on_imu(m);
+    if (pdr_) pdr_->on_imu(m);
+    if (ins_) ins_->on_imu(m);
   }
 }
 

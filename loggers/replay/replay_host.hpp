@@ -13,6 +13,7 @@
 #include "core/cli.hpp"
 #include "core/site.hpp"
 #include "estimators/aoa/aoa_estimator.hpp"
+#include "estimators/ins/ins_estimator.hpp"
 #include "estimators/pdr/pdr_estimator.hpp"
 #include "estimators/uwb_tdoa/tdoa_estimator.hpp"
 #include "estimators/uwb_twr/twr_estimator.hpp"
@@ -70,6 +71,7 @@ class ReplayHost {
   std::unique_ptr<uwb_tdoa::TdoaEstimator> tdoa_;
   std::unique_ptr<aoa::AoaEstimator> aoa_;
   std::unique_ptr<pdr::PdrEstimator> pdr_;
+  std::unique_ptr<ins::InsEstimator> ins_;
 };
 
 }  // namespace ips::replay

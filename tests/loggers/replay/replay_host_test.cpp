@@ -142,6 +142,26 @@ TEST(ReplayHost, HostsThePdrEstimator) {
   EXPECT_EQ(poses, steps);
 }
 
+// The foot INS: on walk-square-foot (10 s standing, then walking), POSE_INS at 10 Hz once
+// aligned, each right after the IMU sample that produced it, with its log time.
+TEST(ReplayHost, HostsTheInsEstimator) {
+  ReplayOptions ro;
+  ro.only = {"ins"};
+  const auto out = replay(ro, 20, {}, "walk-square-foot");
+  int poses = 0;
+  for (size_t i = 0; i < out.size(); ++i) {
+    if (out[i].channel != "POSE_INS") continue;
+    ++poses;
+    EXPECT_EQ(out[i - 1].channel, "IMU");
+    EXPECT_EQ(out[i - 1].timestamp, out[i].timestamp);
+    pose_t p;
+    ASSERT_GT(p.decode(out[i].data.data(), 0, static_cast<int>(out[i].data.size())), 0);
+    EXPECT_EQ(p.source, "ins");
+  }
+  EXPECT_GT(poses, 150);  // 10 Hz over 20 s, less the alignment
+  EXPECT_LE(poses, 200);
+}
+
 TEST(ReplayHost, SameEventsSameBytes) { EXPECT_EQ(replay({}), replay({})); }
 
 TEST(ReplayHost, RegeneratedChannelsAreDroppedUnlessKept) {
@@ -170,7 +190,7 @@ TEST(ReplayHost, OnlyNamesKnownEstimators) {
     ReplayHost(ro, CommonOptions{}, [](auto&&...) {});
     FAIL();
   } catch (const ConfigError& e) {
-    EXPECT_STREQ(e.what(), "--only: unknown estimator 'teleport' (uwb_twr, uwb_tdoa, aoa, pdr)");
+    EXPECT_STREQ(e.what(), "--only: unknown estimator 'teleport' (uwb_twr, uwb_tdoa, aoa, pdr, ins)");
   }
 }
 

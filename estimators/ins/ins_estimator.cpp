@@ -1,0 +1,261 @@
+#include "estimators/ins/ins_estimator.hpp"
+
+#include <cmath>
+#include <limits>
+
+#include "core/geometry.hpp"
+#include "estimators/ins/models/zero_velocity.hpp"
+
+namespace ips::ins {
+
+namespace {
+// Beyond any MEMS IMU's range (16 g, 2000 deg/s is typical): a corrupt sample, not a motion.
+constexpr double kMaxAccelMps2 = 1000.0;
+constexpr double kMaxRateRps = 100.0;
+}  // namespace
+
+InsParams parse_ins_params(const YamlField& s) {
+  InsParams p;
+  if (!s.defined()) return p;
+  if (!s.is_map()) s.fail("expected a map of ins parameters");
+  s.check_keys({"gravity_mps2", "detector_window_samples", "detector_accel_sigma_mps2",
+                "detector_gyro_sigma_dps", "detector_threshold", "min_stance_s", "alignment_s",
+                "accel_noise_mps2", "gyro_noise_dps", "zupt_sigma_mps", "initial_position_sigma_m",
+                "initial_velocity_sigma_mps", "initial_tilt_sigma_deg", "initial_heading_sigma_deg",
+                "max_gap_s", "publish_period_s", "max_tags"});
+  // Every parameter is bounded: a SITE message on the bus is outside input.
+  auto bounded = [&](const char* key, double v, double lo, double hi) {
+    v = s.get_double(key, v);
+    if (!(v >= lo && v <= hi))
+      s[key].fail("must be in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
+    return v;
+  };
+  auto bounded_int = [&](const char* key, int v, int lo, int hi) {
+    const int64_t got = s.get_int(key, v);
+    if (got < lo || got > hi)
+      s[key].fail("must be in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
+    return static_cast<int>(got);
+  };
+  p.gravity_mps2 = bounded("gravity_mps2", p.gravity_mps2, 9.7, 9.9);
+  p.detector.gravity_mps2 = p.gravity_mps2;
+  p.detector.window_samples = bounded_int("detector_window_samples", p.detector.window_samples, 1,
+                                          StanceDetector::kMaxWindow);
+  p.detector.accel_sigma_mps2 =
+      bounded("detector_accel_sigma_mps2", p.detector.accel_sigma_mps2, 1e-5, 100);
+  p.detector.gyro_sigma_rps = deg_to_rad(
+      bounded("detector_gyro_sigma_dps", rad_to_deg(p.detector.gyro_sigma_rps), 1e-5, 1000));
+  p.detector.threshold = bounded("detector_threshold", p.detector.threshold, 1e-6, 1e15);
+  p.min_stance_s = bounded("min_stance_s", p.min_stance_s, 0, 10);
+  p.alignment_s = bounded("alignment_s", p.alignment_s, 0.001, 3600);
+  p.accel_noise_mps2 = bounded("accel_noise_mps2", p.accel_noise_mps2, 1e-6, 100);
+  p.gyro_noise_rps =
+      deg_to_rad(bounded("gyro_noise_dps", rad_to_deg(p.gyro_noise_rps), 1e-6, 1000));
+  p.zupt_sigma_mps = bounded("zupt_sigma_mps", p.zupt_sigma_mps, 1e-5, 10);
+  p.initial_position_sigma_m =
+      bounded("initial_position_sigma_m", p.initial_position_sigma_m, 1e-6, 1e4);
+  p.initial_velocity_sigma_mps =
+      bounded("initial_velocity_sigma_mps", p.initial_velocity_sigma_mps, 1e-6, 100);
+  p.initial_tilt_sigma_deg = bounded("initial_tilt_sigma_deg", p.initial_tilt_sigma_deg, 1e-6, 90);
+  p.initial_heading_sigma_deg =
+      bounded("initial_heading_sigma_deg", p.initial_heading_sigma_deg, 1e-6, 180);
+  p.max_gap_s = bounded("max_gap_s", p.max_gap_s, 1e-4, 60);
+  p.publish_period_s = bounded("publish_period_s", p.publish_period_s, 0, 3600);
+  p.max_tags = bounded_int("max_tags", p.max_tags, 1, 100000);
+  return p;
+}
+
+InsEstimator::InsEstimator(PoseSink sink, std::string source_name)
+    : sink_(std::move(sink)), source_(std::move(source_name)) {}
+
+void InsEstimator::set_site(const Site& site) {
+  InsParams params = parse_ins_params(site.estimator_params("ins"));
+  params_ = params;
+  site_ = site;
+  tracks_.clear();
+}
+
+std::optional<InsTrackSummary> InsEstimator::track(const std::string& tag_id) const {
+  const auto it = tracks_.find(tag_id);
+  if (it == tracks_.end()) return std::nullopt;
+  const Track& t = it->second;
+  InsTrackSummary s;
+  s.navigating = t.phase == Phase::kNavigating;
+  s.strides = t.strides;
+  s.distance_m = t.distance_m;
+  s.position = t.filter.position();
+  s.velocity = t.filter.velocity();
+  s.heading_rad = t.filter.heading_rad();
+  s.gyro_bias_rps = t.gyro_bias;
+  s.in_stance = t.in_stance;
+  return s;
+}
+
+void InsEstimator::on_imu(const imu_t& m) {
+  ++stats_.samples_in;
+  if (!site_) {
+    ++stats_.dropped_no_site;
+    return;
+  }
+  const Eigen::Vector3d f(m.accel[0], m.accel[1], m.accel[2]);
+  const Eigen::Vector3d w_raw(m.gyro[0], m.gyro[1], m.gyro[2]);
+  if (!plausible_utime(m.utime) || m.device_id.empty() || !f.allFinite() || !w_raw.allFinite() ||
+      f.norm() > kMaxAccelMps2 || w_raw.norm() > kMaxRateRps) {
+    ++stats_.dropped_invalid;
+    return;
+  }
+  auto it = tracks_.find(m.device_id);
+  if (it == tracks_.end()) {
+    if (static_cast<int>(tracks_.size()) >= params_.max_tags) {
+      ++stats_.dropped_too_many_tags;
+      return;
+    }
+    it = tracks_.try_emplace(m.device_id).first;
+    Track& fresh = it->second;
+    fresh.detector = StanceDetector(params_.detector);
+    const Tag* tag = site_->find_tag(m.device_id);
+    if (tag && tag->has_start()) {
+      fresh.start.position_m = tag->start_position;
+      if (std::isfinite(tag->start_heading_rad)) fresh.start.heading_rad = tag->start_heading_rad;
+    } else {
+      ++stats_.tags_without_start_pose;
+    }
+  }
+  Track& t = it->second;
+  if (t.last_utime != 0 && m.utime <= t.last_utime) {
+    ++stats_.dropped_out_of_order;
+    return;
+  }
+  const double dt = t.last_utime != 0 ? utime_to_s(m.utime - t.last_utime) : 0.0;
+  const bool gap = t.last_utime != 0 && dt > params_.max_gap_s;
+  t.last_utime = m.utime;
+  if (gap) ++stats_.gaps;
+
+  const Eigen::Vector3d w = w_raw - t.gyro_bias;
+  const bool stance = t.detector.add(f, w);
+  if (stance) ++stats_.stance_samples;
+
+  if (t.phase == Phase::kAligning || t.refining) {
+    t.in_stance = stance;
+    if (stance) {
+      if (t.still_samples == 0) t.still_since = m.utime;
+      t.accel_sum += f;
+      t.gyro_sum += w_raw;
+      ++t.still_samples;
+      ++stats_.samples_used;
+      if (t.phase == Phase::kAligning &&
+          m.utime - t.still_since >= s_to_utime(params_.alignment_s)) {
+        t.phase = Phase::kNavigating;
+        t.refining = true;
+        ++stats_.alignments;
+      }
+      if (t.refining) {
+        // Still at the start: the longer the still period, the better the bias and the tilt.
+        align(t);
+        t.tally.add(0.0);  // a still sample is a zero-velocity measurement
+        publish(t, m.device_id, m.utime);
+      }
+      return;
+    }
+    if (t.phase == Phase::kAligning) {
+      if (t.still_samples > 0) ++stats_.alignment_restarts;
+      t.accel_sum.setZero();
+      t.gyro_sum.setZero();
+      t.still_samples = 0;
+      return;
+    }
+    // The foot moves: navigation proper starts from this sample.
+    t.refining = false;
+    t.in_stance = false;
+    t.have_stance_position = true;
+    t.last_stance_position = t.filter.position();
+  }
+  if (gap) {
+    // Samples are missing: integrating across the gap would invent a motion. The next stance
+    // corrects the velocity.
+    t.in_stance = false;
+    return;
+  }
+  navigate(t, m, f, w, dt, stance);
+}
+
+void InsEstimator::align(Track& t) {
+  const double n = static_cast<double>(t.still_samples);
+  const Eigen::Vector3d f_mean = t.accel_sum / n;
+  t.gyro_bias = t.gyro_sum / n;
+  // Roll and pitch: the rotation that takes the mean specific force to +z (the same tilt as
+  // 001's atan formulas, without their axis conventions); yaw: the start heading of the body's
+  // y axis.
+  const Eigen::Quaterniond tilt =
+      Eigen::Quaterniond::FromTwoVectors(f_mean, Eigen::Vector3d::UnitZ());
+  StrapdownFilter probe;
+  probe.set_attitude(tilt);
+  const double yaw = wrap_angle(t.start.heading_rad - probe.heading_rad());
+  const Eigen::Quaterniond q =
+      Eigen::Quaterniond(Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ())) * tilt;
+  ErrorCov P0 = ErrorCov::Zero();
+  const double sp = params_.initial_position_sigma_m, sv = params_.initial_velocity_sigma_mps;
+  const double st = deg_to_rad(params_.initial_tilt_sigma_deg);
+  const double sh = deg_to_rad(params_.initial_heading_sigma_deg);
+  for (int i = 0; i < 3; ++i) {
+    P0(kPos + i, kPos + i) = sp * sp;
+    P0(kVel + i, kVel + i) = sv * sv;
+  }
+  P0(kAtt, kAtt) = P0(kAtt + 1, kAtt + 1) = st * st;
+  P0(kAtt + 2, kAtt + 2) = sh * sh;
+  t.filter.reset(q, t.start.position_m, P0);
+}
+
+void InsEstimator::navigate(Track& t, const imu_t& m, const Eigen::Vector3d& f,
+                            const Eigen::Vector3d& w, double dt, bool stance) {
+  t.filter.propagate(f, w, dt, params_.gravity_mps2, params_.accel_noise_mps2,
+                     params_.gyro_noise_rps);
+  ++stats_.samples_used;
+  if (stance) {
+    if (!t.in_stance) {
+      t.in_stance = true;
+      t.stance_since = m.utime;
+      t.stance_counted = false;
+    }
+    if (m.utime - t.stance_since >= s_to_utime(params_.min_stance_s)) {
+      const ZeroVelocityResult r = zero_velocity_update(t.filter, params_.zupt_sigma_mps);
+      if (r.accepted) {
+        ++stats_.zupts;
+        t.tally.add(r.position_correction_m);
+      } else {
+        ++stats_.zupts_failed;
+      }
+      if (!t.stance_counted) {
+        t.stance_counted = true;
+        ++t.strides;
+        const Eigen::Vector3d& p = t.filter.position();
+        t.distance_m += horizontal_distance(p, t.last_stance_position);
+        t.last_stance_position = p;
+      }
+    }
+  } else {
+    t.in_stance = false;
+  }
+  publish(t, m.device_id, m.utime);
+}
+
+void InsEstimator::publish(Track& t, const std::string& tag_id, utime_t utime) {
+  if (!t.tally.due(utime, params_.publish_period_s)) return;
+  pose_t p;
+  p.utime = utime;
+  p.source = source_;
+  p.tag_id = tag_id;
+  const Eigen::Vector3d& pos = t.filter.position();
+  const Eigen::Vector3d& vel = t.filter.velocity();
+  const ErrorCov& P = t.filter.covariance();
+  for (int k = 0; k < 3; ++k) {
+    p.position[k] = pos(k);
+    p.velocity[k] = vel(k);
+    for (int j = 0; j < 3; ++j) p.position_cov[3 * k + j] = P(kPos + k, kPos + j);
+  }
+  p.heading_rad = t.filter.heading_rad();
+  t.tally.finish(p, false, utime);
+  ++stats_.poses_out;
+  sink_(p);
+}
+
+}  // namespace ips::ins

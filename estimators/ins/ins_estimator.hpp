@@ -1,0 +1,138 @@
+#pragma once
+// Foot-mounted ZUPT-aided strapdown INS (source 001 section 2, the OpenShoe ZUPT INS): imu_t
+// samples of a foot-mounted IMU -> pose_t per tag (device_id).
+//   1. Stance detection: the SHOE detector on acceleration and angular-rate energy over the last
+//      W samples (stance_detector.hpp); a stance counts once it has lasted min_stance_s.
+//   2. Initial alignment over the first still period (at least alignment_s, refined until the
+//      foot first moves): roll and pitch from the mean specific force, gyro bias from the mean
+//      angular rate (002 section 4), position and yaw from the tag's start pose in the site
+//      (tags[].start_position, start_heading_deg: the direction of the toes; no magnetometer).
+//   3. Strapdown mechanisation and a 9-state error-state Kalman filter (strapdown_filter.hpp),
+//      with a zero-velocity update on every stance sample (models/zero_velocity.hpp).
+// Publishes at most one pose per publish_period_s: position with the filter's covariance,
+// velocity, heading of the device's y axis (the toes), 3D. num_used = ZUPTs since the last
+// pose, residual_m = RMS position correction they applied; COASTING when none (the swing).
+// Pure: takes messages, emits pose_t through a callback, never reads a clock.
+#include <functional>
+#include <ips/imu_t.hpp>
+#include <ips/pose_t.hpp>
+#include <map>
+#include <optional>
+#include <string>
+
+#include "core/pose_tally.hpp"
+#include "core/site.hpp"
+#include "estimators/ins/stance_detector.hpp"
+#include "estimators/ins/strapdown_filter.hpp"
+
+namespace ips::ins {
+
+struct InsParams {
+  double gravity_mps2 = 9.81;
+  StanceDetectorParams detector;  // 001/OpenShoe: W = 3, 0.01 m/s^2, 0.1 deg/s, 3e4
+  double min_stance_s = 0.02;     // shorter stances are not trusted for a ZUPT
+  double alignment_s = 1.0;       // still time needed before navigating (001: 50 ms)
+  double accel_noise_mps2 = 0.5;  // process noise per sample (OpenShoe sigma_acc)
+  double gyro_noise_rps = 0.5 * 3.14159265358979323846 / 180.0;  // OpenShoe 0.5 deg/s
+  double zupt_sigma_mps = 0.01;                                  // 001: R = 1e-4 I
+  double initial_position_sigma_m = 0.01;
+  double initial_velocity_sigma_mps = 0.01;
+  double initial_tilt_sigma_deg = 1.0;
+  double initial_heading_sigma_deg = 1.0;
+  double max_gap_s = 0.1;         // a longer gap between samples is not integrated
+  double publish_period_s = 0.1;  // 0: a pose per sample
+  int max_tags = 1000;
+};
+
+// Reads `estimators.ins` of the site; throws ConfigError naming file, line and field.
+InsParams parse_ins_params(const YamlField& section);
+
+struct InsStats {
+  int64_t samples_in = 0;
+  int64_t samples_used = 0;          // integrated, or used for the alignment
+  int64_t dropped_invalid = 0;       // NaN/inf or absurd accelerometer or gyro, implausible utime
+  int64_t dropped_out_of_order = 0;  // utime not after the tag's previous sample
+  int64_t dropped_no_site = 0;
+  int64_t dropped_too_many_tags = 0;
+  int64_t gaps = 0;  // more than max_gap_s between two samples: not integrated
+  int64_t alignments = 0;
+  int64_t alignment_restarts = 0;       // the foot moved before alignment_s of stillness
+  int64_t tags_without_start_pose = 0;  // started at the origin facing +x
+  int64_t stance_samples = 0;
+  int64_t zupts = 0;
+  int64_t zupts_failed = 0;  // numerically singular (never expected)
+  int64_t poses_out = 0;
+};
+
+// One tag's dead-reckoning summary, for tests and reports.
+struct InsTrackSummary {
+  bool navigating = false;
+  int64_t strides = 0;    // stance phases that reached min_stance_s after the start
+  double distance_m = 0;  // horizontal path between successive stance positions
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();
+  Eigen::Vector3d velocity = Eigen::Vector3d::Zero();
+  double heading_rad = 0;
+  Eigen::Vector3d gyro_bias_rps = Eigen::Vector3d::Zero();
+  bool in_stance = false;
+};
+
+class InsEstimator {
+ public:
+  using PoseSink = std::function<void(const pose_t&)>;
+  explicit InsEstimator(PoseSink sink, std::string source_name = "ins");
+
+  // Parameters and start poses; resets all tracks. Throws ConfigError on bad parameters (the
+  // estimator keeps its previous site then).
+  void set_site(const Site& site);
+  bool has_site() const { return site_.has_value(); }
+  void on_imu(const imu_t& msg);
+
+  const InsStats& stats() const { return stats_; }
+  const InsParams& params() const { return params_; }
+  std::optional<InsTrackSummary> track(const std::string& tag_id) const;
+
+ private:
+  enum class Phase { kAligning, kNavigating };
+  // Where a track starts (relative navigation cannot find it: 001 section 5).
+  struct StartPose {
+    Eigen::Vector3d position_m = Eigen::Vector3d::Zero();
+    double heading_rad = 0.0;  // the toes' direction, from +x counter-clockwise
+  };
+  struct Track {
+    Phase phase = Phase::kAligning;
+    StanceDetector detector;
+    StartPose start;
+    utime_t last_utime = 0;
+    // Alignment: sums over the current still period.
+    Eigen::Vector3d accel_sum = Eigen::Vector3d::Zero();
+    Eigen::Vector3d gyro_sum = Eigen::Vector3d::Zero();
+    int64_t still_samples = 0;
+    utime_t still_since = 0;
+    bool refining = false;  // navigating, the first still period not over yet
+    Eigen::Vector3d gyro_bias = Eigen::Vector3d::Zero();
+    StrapdownFilter filter;
+    bool in_stance = false;
+    utime_t stance_since = 0;
+    bool stance_counted = false;
+    bool have_stance_position = false;
+    Eigen::Vector3d last_stance_position = Eigen::Vector3d::Zero();
+    int64_t strides = 0;
+    double distance_m = 0;
+    bool reinitialised = false;
+    PoseTally tally;
+  };
+
+  void align(Track& t);
+  void navigate(Track& t, const imu_t& m, const Eigen::Vector3d& f, const Eigen::Vector3d& w,
+                double dt, bool stance);
+  void publish(Track& t, const std::string& tag_id, utime_t utime);
+
+  PoseSink sink_;
+  std::string source_;
+  std::optional<Site> site_;
+  InsParams params_;
+  std::map<std::string, Track> tracks_;
+  InsStats stats_;
+};
+
+}  // namespace ips::ins

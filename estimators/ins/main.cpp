@@ -1,0 +1,49 @@
+// ips-ins: subscribes to IMU (foot-mounted), publishes POSE_INS per tag.
+#include <spdlog/spdlog.h>
+
+#include "core/channels.hpp"
+#include "core/cli.hpp"
+#include "core/node.hpp"
+#include "core/site_source.hpp"
+#include "estimators/ins/ins_estimator.hpp"
+
+namespace {
+constexpr const char* kProgram = "ips-ins";
+}
+
+int main(int argc, char** argv) {
+  CLI::App app{
+      "ips-ins: a foot-mounted ZUPT-aided strapdown INS. Integrates the IMU samples of "
+      "a foot-mounted IMU (IMU), corrects them with a zero-velocity update in every "
+      "stance phase, and publishes each tag's position with covariance, velocity and "
+      "heading (POSE_INS). Start poses and parameters: the site's estimators.ins.",
+      kProgram};
+  ips::CommonOptions opts;
+  ips::add_common_options(app, opts);
+  int rc = 0;
+  if (!ips::parse_command_line(app, opts, argc, argv, rc)) return rc;
+  return ips::run_reporting_errors(kProgram, [&] {
+    ips::Node node(kProgram, opts);
+    const std::string out_channel = opts.channel(ips::channel::kPoseIns);
+    ips::ins::InsEstimator est([&](const ips::pose_t& p) { node.publish(out_channel, p); });
+    ips::provide_site(node, [&](const ips::Site& site) { est.set_site(site); });
+    int64_t reported_drops = 0;
+    node.subscribe<ips::imu_t>(opts.channel(ips::channel::kImu), [&](const ips::imu_t& m,
+                                                                     const std::string&) {
+      est.on_imu(m);
+      const auto& s = est.stats();
+      const int64_t drops = s.dropped_invalid + s.dropped_out_of_order + s.dropped_no_site +
+                            s.dropped_too_many_tags + s.gaps;
+      if (drops != reported_drops) {
+        node.counters().drops += drops - reported_drops;
+        reported_drops = drops;
+        node.report_error("dropped samples: " + std::to_string(s.dropped_invalid) + " invalid, " +
+                          std::to_string(s.dropped_out_of_order) + " out of order, " +
+                          std::to_string(s.dropped_no_site) + " before a site, " +
+                          std::to_string(s.dropped_too_many_tags) + " beyond max_tags; " +
+                          std::to_string(s.gaps) + " gaps not integrated");
+      }
+    });
+    return node.run();
+  });
+}
