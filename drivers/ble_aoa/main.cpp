@@ -24,6 +24,7 @@
 #include "core/lcm_url.hpp"
 #include "core/line_buffer.hpp"
 #include "core/node.hpp"
+#include "core/paced_release.hpp"
 #include "core/progress.hpp"
 #include "core/serial_port.hpp"
 #include "core/text_escape.hpp"
@@ -297,31 +298,10 @@ int publish_capture(std::FILE* file, int64_t size, const ips::CommonOptions& opt
   const std::string channel = opts.channel(ips::channel::kBleAoa);
   // Paced by the capture's own times: message k goes out (utime_k - utime_0) / speed after the
   // first; a time earlier than one already sent (the logger's threads) goes out at once.
-  bool first = true;
-  int64_t utime0 = 0;
-  auto wall0 = std::chrono::steady_clock::now();
   bool stopped = false;
+  ips::PacedRelease pace(node, speed);
   CaptureDecoder decoder(kProgram, base, zone, [&](const ips::ble_aoa_t& m) {
-    if (first) {
-      first = false;
-      utime0 = m.utime;
-      wall0 = std::chrono::steady_clock::now();
-    }
-    if (speed > 0) {
-      const auto due = wall0 + std::chrono::microseconds(static_cast<int64_t>(
-                                   static_cast<double>(m.utime - utime0) / speed));
-      for (;;) {
-        const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(
-                              due - std::chrono::steady_clock::now())
-                              .count();
-        if (left <= 0) break;
-        if (!node.spin_once(static_cast<int>(std::min<int64_t>(left, 100)))) {
-          stopped = true;
-          return;
-        }
-      }
-    }
-    if (!node.spin_once(0)) {
+    if (stopped || !pace.wait(m.utime)) {
       stopped = true;
       return;
     }

@@ -24,6 +24,7 @@
 #include "core/lcm_url.hpp"
 #include "core/line_buffer.hpp"
 #include "core/node.hpp"
+#include "core/paced_release.hpp"
 #include "core/progress.hpp"
 #include "core/text_escape.hpp"
 #include "drivers/phone_imu/csv_row.hpp"
@@ -330,37 +331,15 @@ int publish_file(std::FILE* file, int64_t size, const ips::CommonOptions& opts,
                  const std::string& device, const std::string& source, double speed) {
   ips::Node node(kProgram, opts);
   const std::string channel = opts.channel(ips::channel::kImu);
-  bool first = true, stopped = false;
-  int64_t utime0 = 0;
-  auto wall0 = std::chrono::steady_clock::now();
+  bool stopped = false;
+  ips::PacedRelease pace(node, speed);  // by the file's own times
   FileCounts counts;
   int64_t bad_seen = 0;
   import_rows(
       file, size, s, start_s, device, source,
       [&](const ips::imu_t& m) {
         if (stopped) return;
-        if (first) {
-          first = false;
-          utime0 = m.utime;
-          wall0 = std::chrono::steady_clock::now();
-        }
-        // Paced by the file's own times: message k goes out (utime_k - utime_0) / speed after
-        // the first; a time earlier than one already sent goes out at once.
-        if (speed > 0) {
-          const auto due = wall0 + std::chrono::microseconds(static_cast<int64_t>(
-                                       static_cast<double>(m.utime - utime0) / speed));
-          for (;;) {
-            const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(
-                                  due - std::chrono::steady_clock::now())
-                                  .count();
-            if (left <= 0) break;
-            if (!node.spin_once(static_cast<int>(std::min<int64_t>(left, 100)))) {
-              stopped = true;
-              return;
-            }
-          }
-        }
-        if (!node.spin_once(0)) {
+        if (!pace.wait(m.utime)) {
           stopped = true;
           return;
         }
