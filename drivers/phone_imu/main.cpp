@@ -25,6 +25,7 @@
 #include "core/line_buffer.hpp"
 #include "core/node.hpp"
 #include "core/paced_release.hpp"
+#include "core/udp_socket.hpp"
 #include "core/progress.hpp"
 #include "core/text_escape.hpp"
 #include "drivers/phone_imu/csv_row.hpp"
@@ -32,7 +33,6 @@
 #include "drivers/phone_imu/http_server.hpp"
 #include "drivers/phone_imu/phone_streams.hpp"
 #include "drivers/phone_imu/sensor_logger_json.hpp"
-#include "drivers/phone_imu/udp_socket.hpp"
 
 namespace {
 
@@ -161,13 +161,13 @@ int run_live(const ips::CommonOptions& opts, Settings& s) {
   ips::Node node(kProgram, opts);
   s.streams.source = kProgram;
   Live live(node, s);
-  std::unique_ptr<UdpSocket> udp;
+  std::unique_ptr<ips::UdpSocket> udp;
   std::unique_ptr<HttpServer> http;
   std::string error;
   if (s.udp_port > 0) {
-    udp = std::make_unique<UdpSocket>(
+    udp = std::make_unique<ips::UdpSocket>(
         node, s.max_datagram_bytes,
-        UdpSocket::Callbacks{
+        ips::UdpSocket::Callbacks{
             .on_datagram =
                 [&](std::string_view d, const std::string& sender, ips::utime_t t) {
                   live.on_datagram(d, sender, t);

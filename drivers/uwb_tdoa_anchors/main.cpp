@@ -20,17 +20,20 @@
 #include "core/log_input.hpp"
 #include "core/log_to_lines.hpp"
 #include "core/node.hpp"
+#include "core/udp_socket.hpp"
 #include "core/text_escape.hpp"
 #include "drivers/uwb_tdoa_anchors/anchor_report_parser.hpp"
 #include "drivers/uwb_tdoa_anchors/record_splitter.hpp"
 #include "drivers/uwb_tdoa_anchors/tcp_client.hpp"
-#include "drivers/uwb_tdoa_anchors/udp_receiver.hpp"
 #include "drivers/uwb_tdoa_anchors/wire_ids.hpp"
 
 namespace {
 
 constexpr const char* kProgram = "ips-uwb-tdoa-anchors";
 using namespace ips::uwb_tdoa_anchors;
+
+// A UDP datagram can hold at most 64 KiB; reports are far smaller.
+constexpr size_t kMaxDatagramBytes = 65535;
 
 // Every record read goes through here: parsed and published, or counted and reported.
 class RecordPublisher {
@@ -119,11 +122,11 @@ int read_udp(ips::Node& node, const WireIds& ids, PowerModel power, const std::s
   RecordPublisher pub(node, ids, power,
                       std::string(kProgram) + ":udp:" + addr + ":" + std::to_string(port));
   RecordSplitter splitter;
-  UdpReceiver rx(
-      node,
-      UdpReceiver::Callbacks{
+  ips::UdpSocket rx(
+      node, kMaxDatagramBytes,
+      ips::UdpSocket::Callbacks{
           .on_datagram =
-              [&](std::string_view d, ips::utime_t utime) {
+              [&](std::string_view d, const std::string&, ips::utime_t utime) {
                 splitter.feed_datagram(d, [&](std::string_view r) { pub.on_record(r, utime); });
                 pub.check_overlong(splitter);
               },
@@ -132,7 +135,7 @@ int read_udp(ips::Node& node, const WireIds& ids, PowerModel power, const std::s
                 node.counters().drops += n;
                 node.report_error(std::to_string(n) + " datagram(s) dropped: receive queue full");
               },
-          .on_truncated = [&](size_t) { pub.bad("datagram longer than 64 KiB"); },
+          .on_truncated = [&](const std::string&) { pub.bad("datagram longer than 64 KiB"); },
       });
   std::string error;
   if (!rx.open(addr, port, error)) {
@@ -344,7 +347,7 @@ int main(int argc, char** argv) {
         !why.empty())
       return usage_error("--tcp " + ips::printable(tcp) + ": " + why);
   if (o_udp->count() > 0)
-    if (const std::string why = parse_udp_bind(udp, udp_addr, udp_port); !why.empty())
+    if (const std::string why = ips::parse_udp_bind(udp, udp_addr, udp_port); !why.empty())
       return usage_error("--udp " + ips::printable(udp) + ": " + why);
   // The file before LCM: without it there is nothing to wait for.
   std::unique_ptr<std::FILE, int (*)(std::FILE*)> in(nullptr, &std::fclose);

@@ -1,4 +1,4 @@
-#include "drivers/uwb_tdoa_anchors/udp_receiver.hpp"
+#include "core/udp_socket.hpp"
 
 #include <arpa/inet.h>
 #include <netinet/in.h>
@@ -7,17 +7,11 @@
 
 #include <cerrno>
 #include <cstring>
-#include <vector>
 
 #include "core/node.hpp"
 #include "core/text_escape.hpp"
 
-namespace ips::uwb_tdoa_anchors {
-
-namespace {
-constexpr size_t kMaxDatagramBytes = 65536;
-constexpr int kReceiveBufferBytes = 1 << 20;
-}  // namespace
+namespace ips {
 
 std::string parse_udp_bind(const std::string& text, std::string& addr, uint16_t& port) {
   const size_t colon = text.rfind(':');
@@ -35,17 +29,17 @@ std::string parse_udp_bind(const std::string& text, std::string& addr, uint16_t&
   return "";
 }
 
-UdpReceiver::UdpReceiver(Node& node, Callbacks callbacks)
-    : node_(node), callbacks_(std::move(callbacks)) {}
+UdpSocket::UdpSocket(Node& node, size_t max_bytes, Callbacks callbacks)
+    : node_(node), callbacks_(std::move(callbacks)), buf_(max_bytes + 1) {}
 
-UdpReceiver::~UdpReceiver() {
+UdpSocket::~UdpSocket() {
   if (fd_ >= 0) {
     node_.unwatch_fd(fd_);
     ::close(fd_);
   }
 }
 
-bool UdpReceiver::open(const std::string& addr, uint16_t port, std::string& error) {
+bool UdpSocket::open(const std::string& addr, uint16_t port, std::string& error) {
   fd_ = ::socket(AF_INET, SOCK_DGRAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
   if (fd_ < 0) {
     error = std::string("socket: ") + std::strerror(errno);
@@ -53,8 +47,10 @@ bool UdpReceiver::open(const std::string& addr, uint16_t port, std::string& erro
   }
   const int on = 1;
   setsockopt(fd_, SOL_SOCKET, SO_RXQ_OVFL, &on, sizeof on);
-  // Bursts of reports (every anchor answers every blink at once) must not overflow the queue.
-  setsockopt(fd_, SOL_SOCKET, SO_RCVBUF, &kReceiveBufferBytes, sizeof kReceiveBufferBytes);
+  // A fixed queue (the kernel caps it at net.core.rmem_max) rides out bursts; beyond it datagrams
+  // are dropped and counted, never buffered by us.
+  const int queue_bytes = 1 << 20;
+  setsockopt(fd_, SOL_SOCKET, SO_RCVBUF, &queue_bytes, sizeof queue_bytes);
   sockaddr_in sa{};
   sa.sin_family = AF_INET;
   sa.sin_port = htons(port);
@@ -72,13 +68,15 @@ bool UdpReceiver::open(const std::string& addr, uint16_t port, std::string& erro
   return true;
 }
 
-void UdpReceiver::on_readable() {
-  static thread_local std::vector<char> buf(kMaxDatagramBytes);
+void UdpSocket::on_readable() {
   alignas(cmsghdr) char control[CMSG_SPACE(sizeof(uint32_t))];
-  // Bounded per wake-up so that timers and signals are served during a flood.
+  // Bounded per wake-up so that timers, HTTP and signals are served during a flood.
   for (int i = 0; i < 256; ++i) {
-    iovec iov{buf.data(), buf.size()};
+    iovec iov{buf_.data(), buf_.size()};
+    sockaddr_in from{};
     msghdr msg{};
+    msg.msg_name = &from;
+    msg.msg_namelen = sizeof from;
     msg.msg_iov = &iov;
     msg.msg_iovlen = 1;
     msg.msg_control = control;
@@ -99,12 +97,16 @@ void UdpReceiver::on_readable() {
         dropped_seen_ = total;
       }
     }
-    if (msg.msg_flags & MSG_TRUNC) {
-      if (callbacks_.on_truncated) callbacks_.on_truncated(static_cast<size_t>(n));
+    char text[INET_ADDRSTRLEN] = "?";
+    inet_ntop(AF_INET, &from.sin_addr, text, sizeof text);
+    const std::string sender(text);
+    // One byte more than allowed was asked for: a datagram that filled it is too long.
+    if ((msg.msg_flags & MSG_TRUNC) || static_cast<size_t>(n) >= buf_.size()) {
+      if (callbacks_.on_truncated) callbacks_.on_truncated(sender);
       continue;
     }
-    callbacks_.on_datagram(std::string_view(buf.data(), static_cast<size_t>(n)), now);
+    callbacks_.on_datagram(std::string_view(buf_.data(), static_cast<size_t>(n)), sender, now);
   }
 }
 
-}  // namespace ips::uwb_tdoa_anchors
+}  // namespace ips

@@ -15,7 +15,11 @@ namespace ips {
 class Node;
 }
 
-namespace ips::phone_imu {
+namespace ips {
+
+// "[ADDR:]PORT" (ADDR: IPv4, default 127.0.0.1, so nothing off the host reaches us unless asked
+// for, e.g. 0.0.0.0:PORT). The reason when it is not.
+std::string parse_udp_bind(const std::string& text, std::string& addr, uint16_t& port);
 
 class UdpSocket {
  public:
@@ -43,4 +47,4 @@ class UdpSocket {
   uint32_t dropped_seen_ = 0;
 };
 
-}  // namespace ips::phone_imu
+}  // namespace ips
