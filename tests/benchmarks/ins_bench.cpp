@@ -39,8 +39,9 @@ ips::imu_t make_sample(int64_t k, bool swing) {
 void BM_InsSample(benchmark::State& state, bool swing) {
   ips::ins::InsEstimator est([](const ips::pose_t& p) { benchmark::DoNotOptimize(p.position); });
   est.set_site(ips::parse_site_text(
-      "name: bench\nanchors: []\ntags: [{id: F1}]\n"
-      "estimators: {ins: {alignment_s: 0.1, start: {position: [0, 0, 0], heading_deg: 0}}}\n",
+      "name: bench\nanchors: []\n"
+      "tags: [{id: F1, start_position: [0, 0, 0], start_heading_deg: 0}]\n"
+      "estimators: {ins: {alignment_s: 0.1}}\n",
       "bench"));
   int64_t k = 0;
   for (; k < 100; ++k) est.on_imu(make_sample(k, false));  // aligned
