@@ -9,6 +9,9 @@ namespace ips::pdr {
 
 namespace {
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+// Samples per second needed per hertz of step-filter cut-off (Nyquist is 2; 4 leaves the filter
+// a usable transition band): 12 Hz for 002's 3 Hz.
+constexpr double kMinRatePerCutoff = 4.0;
 
 Eigen::Vector3d vec(const double (&v)[3]) { return {v[0], v[1], v[2]}; }
 }  // namespace
@@ -169,6 +172,16 @@ void PdrEstimator::on_imu(const imu_t& m) {
 }
 
 void PdrEstimator::align(Track& t, const std::string& tag_id, bool rested) {
+  // The step filter needs a sample rate well above its cut-off (a Butterworth low-pass exists
+  // only below Nyquist); a slower IMU cannot be used: say so and keep waiting.
+  const double rate_hz = t.n_dt / t.sum_dt;
+  if (!(rate_hz >= kMinRatePerCutoff * params_.detector.filter_cutoff_hz)) {
+    ++stats_.alignments_too_slow;
+    const utime_t now = t.last_utime;
+    t = Track{};  // a fresh alignment window from this sample
+    t.first_utime = t.rest_start = t.last_utime = now;
+    return;
+  }
   const Tag* tag = site_->find_tag(tag_id);
   const double offset = deg_to_rad(params_.phone_yaw_offset_deg);
   double start_heading = 0.0;

@@ -66,6 +66,7 @@ struct PdrStats {
   int64_t dropped_too_many_tags = 0;
   int64_t alignments = 0;
   int64_t alignments_without_rest = 0;
+  int64_t alignments_too_slow = 0;  // sample rate below 4 x the step filter's cut-off: refused
   int64_t mag_updates = 0;
   int64_t mag_rejected = 0;        // field failed the norm or dip check
   int64_t steps = 0;

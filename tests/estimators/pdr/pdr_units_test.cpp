@@ -209,6 +209,29 @@ TEST(PdrEstimator, BadSamplesAreCountedNotUsed) {
   EXPECT_EQ(poses, 0);
 }
 
+// An IMU too slow for the 3 Hz step filter (5 Hz here; at least 12 Hz is needed) is refused at
+// alignment, counted, and nothing is published (found by fuzz_lcm_messages: the filter threw).
+TEST(PdrEstimator, AnImuTooSlowForTheStepFilterIsRefused) {
+  int steps = 0;
+  PdrEstimator est([&](const step_t&) { ++steps; }, [](const pose_t&) {});
+  est.set_site(parse_site_text("name: s\nanchors: []\ntags:\n  - {id: P1, height_m: 1.1}\n", "s"));
+  imu_t m{};
+  m.device_id = "P1";
+  m.device_utime = -1;
+  for (int k = 0; k < 3; ++k) {
+    m.accel[k] = k == 2 ? 9.81 : 0.0;
+    m.gyro[k] = 0;
+    m.mag_ut[k] = NAN;
+  }
+  for (int i = 0; i < 50; ++i) {  // 10 s at 5 Hz, still
+    m.utime = kT0 + i * 200000;
+    est.on_imu(m);
+  }
+  EXPECT_EQ(est.stats().alignments, 0);
+  EXPECT_GE(est.stats().alignments_too_slow, 1);
+  EXPECT_EQ(steps, 0);
+}
+
 TEST(PdrEstimator, BadParametersStopWithTheField) {
   PdrEstimator est([](const step_t&) {}, [](const pose_t&) {});
   auto fails = [&](const std::string& params, const std::string& want) {
