@@ -64,6 +64,19 @@ const ips::Site& aoa_site() {
   return site;
 }
 
+// The sequence inputs: [length byte][message bytes]..., each decoded as Msg and handed to
+// `on_message` when it decodes.
+template <class Msg, class OnMessage>
+void for_each_message(const uint8_t* data, size_t size, OnMessage&& on_message) {
+  size_t pos = 0;
+  while (pos + 1 < size) {
+    const size_t len = std::min<size_t>(data[pos], size - pos - 1);
+    Msg m;
+    if (ips::decode_message(m, data + pos + 1, len)) on_message(m);
+    pos += 1 + len;
+  }
+}
+
 template <class Msg>
 void decode_one(const uint8_t* data, size_t size) {
   Msg m;
@@ -79,13 +92,7 @@ void feed_tracker(const uint8_t* data, size_t size) {
       if (!std::isfinite(v)) throw std::logic_error("non-finite position published");
   });
   est.set_site(lab_site());
-  size_t pos = 0;
-  while (pos + 1 < size) {
-    const size_t len = std::min<size_t>(data[pos], size - pos - 1);
-    ips::uwb_range_t m;
-    if (ips::decode_message(m, data + pos + 1, len)) est.on_range(m);
-    pos += 1 + len;
-  }
+  for_each_message<ips::uwb_range_t>(data, size, [&](const ips::uwb_range_t& m) { est.on_range(m); });
 }
 
 void feed_tdoa(const uint8_t* data, size_t size) {
@@ -99,13 +106,7 @@ void feed_tdoa(const uint8_t* data, size_t size) {
           throw std::logic_error("non-finite clock estimate published");
       });
   est.set_site(tdoa_site());
-  size_t pos = 0;
-  while (pos + 1 < size) {
-    const size_t len = std::min<size_t>(data[pos], size - pos - 1);
-    ips::uwb_rx_t m;
-    if (ips::decode_message(m, data + pos + 1, len)) est.on_rx(m);
-    pos += 1 + len;
-  }
+  for_each_message<ips::uwb_rx_t>(data, size, [&](const ips::uwb_rx_t& m) { est.on_rx(m); });
   est.flush();
 }
 
@@ -118,13 +119,7 @@ void feed_aoa(const uint8_t* data, size_t size) {
     });
     if (!ekf) est.override_method(ips::aoa::AoaMethod::kPerEpoch);
     est.set_site(aoa_site());
-    size_t pos = 0;
-    while (pos + 1 < size) {
-      const size_t len = std::min<size_t>(data[pos], size - pos - 1);
-      ips::ble_aoa_t m;
-      if (ips::decode_message(m, data + pos + 1, len)) est.on_event(m);
-      pos += 1 + len;
-    }
+    for_each_message<ips::ble_aoa_t>(data, size, [&](const ips::ble_aoa_t& m) { est.on_event(m); });
     est.finish();
   }
 }
@@ -147,13 +142,7 @@ void feed_pdr(const uint8_t* data, size_t size) {
           if (!std::isfinite(v)) throw std::logic_error("non-finite PDR position published");
       });
   est.set_site(site);
-  size_t pos = 0;
-  while (pos + 1 < size) {
-    const size_t len = std::min<size_t>(data[pos], size - pos - 1);
-    ips::imu_t m;
-    if (ips::decode_message(m, data + pos + 1, len)) est.on_imu(m);
-    pos += 1 + len;
-  }
+  for_each_message<ips::imu_t>(data, size, [&](const ips::imu_t& m) { est.on_imu(m); });
 }
 }  // namespace
 
