@@ -10,6 +10,15 @@
 
 namespace ips {
 
+namespace {
+// A bound as a reader would write it: 1e+06, 0.001, 9.7.
+std::string format_bound(double v) {
+  std::ostringstream s;
+  s << v;
+  return s.str();
+}
+}  // namespace
+
 YamlField YamlField::operator[](const std::string& key) const {
   std::string p = path_.empty() ? key : path_ + "." + key;
   if (!node_.IsMap()) {
@@ -103,6 +112,20 @@ double YamlField::get_double(const std::string& key, double fallback) const {
 int64_t YamlField::get_int(const std::string& key, int64_t fallback) const {
   auto f = (*this)[key];
   return f.defined() ? f.as_int() : fallback;
+}
+double YamlField::get_double_in(const std::string& key, double fallback, double lo,
+                                double hi) const {
+  const double v = get_double(key, fallback);
+  if (!(v >= lo && v <= hi))
+    (*this)[key].fail("must be in [" + format_bound(lo) + ", " + format_bound(hi) + "]");
+  return v;
+}
+int64_t YamlField::get_int_in(const std::string& key, int64_t fallback, int64_t lo,
+                              int64_t hi) const {
+  const int64_t v = get_int(key, fallback);
+  if (v < lo || v > hi)
+    (*this)[key].fail("must be in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
+  return v;
 }
 bool YamlField::get_bool(const std::string& key, bool fallback) const {
   auto f = (*this)[key];

@@ -55,6 +55,10 @@ class YamlField {
   int64_t get_int(const std::string& key, int64_t fallback) const;
   bool get_bool(const std::string& key, bool fallback) const;
   std::string get_string(const std::string& key, const std::string& fallback) const;
+  // get_double / get_int, failing with "must be in [lo, hi]" outside the bounds (every
+  // parameter is bounded: a SITE message on the bus is outside input).
+  double get_double_in(const std::string& key, double fallback, double lo, double hi) const;
+  int64_t get_int_in(const std::string& key, int64_t fallback, int64_t lo, int64_t hi) const;
   // Fails with "field is required" when absent.
   YamlField required(const std::string& key) const;
 

@@ -1,7 +1,5 @@
 #include "drivers/sim/sensor_model.hpp"
 
-#include <sstream>
-
 namespace ips::sim {
 
 namespace {
@@ -10,12 +8,6 @@ uint64_t stream_key(const std::string& name) {
   uint64_t h = 14695981039346656037ULL;
   for (unsigned char c : name) h = (h ^ c) * 1099511628211ULL;
   return h;
-}
-
-std::string number(double v) {
-  std::ostringstream s;
-  s << v;
-  return s.str();
 }
 }  // namespace
 
@@ -30,9 +22,7 @@ int64_t period_us(double rate_hz) { return std::max<utime_t>(1, s_to_utime(1.0 /
 
 double param_in_range(const YamlField& section, const char* key, double fallback, double lo,
                       double hi) {
-  const double v = section.get_double(key, fallback);
-  if (!(v >= lo && v <= hi)) section[key].fail("must be in [" + number(lo) + ", " + number(hi) + "]");
-  return v;
+  return section.get_double_in(key, fallback, lo, hi);
 }
 
 }  // namespace ips::sim

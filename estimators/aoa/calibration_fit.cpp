@@ -8,6 +8,8 @@
 #include <cmath>
 #include <numeric>
 
+#include "core/site_edit.hpp"
+
 namespace ips::aoa {
 
 namespace {
@@ -471,44 +473,23 @@ CalibrationResult CalibrationCollector::fit() const {
 
 std::string calibrated_site_yaml(const Site& site, const std::vector<AnchorFit>& fits,
                                  const std::vector<std::string>& header) {
-  YAML::Node root;
-  try {
-    root = YAML::Load(site.yaml_text);
-  } catch (const YAML::Exception& e) {
-    throw CalibrationError("the input site's YAML does not parse: " + std::string(e.what()));
-  }
-  if (!root.IsMap()) throw CalibrationError("the input site's YAML is not a map");
-  auto as_map = [](YAML::Node parent, const char* key) {
-    YAML::Node n = parent[key];
-    if (!n.IsMap()) {
-      if (n.IsDefined() && !n.IsNull())
-        throw CalibrationError(std::string("the input site's ") + key + " is not a map");
-      parent[key] = YAML::Node(YAML::NodeType::Map);
-    }
-    return parent[key];
-  };
-  YAML::Node estimators = as_map(root, "estimators");
-  YAML::Node aoa = as_map(estimators, "aoa");
-  YAML::Node cal = as_map(aoa, "calibration");
-  for (const auto& f : fits) {
-    if (!f.azimuth.fitted && !(f.elevation && f.elevation->fitted)) continue;
-    YAML::Node entry = cal[f.anchor_id];
-    if (!entry.IsMap()) {
-      cal[f.anchor_id] = YAML::Node(YAML::NodeType::Map);
-      entry = cal[f.anchor_id];
-    }
-    if (f.azimuth.fitted)
-      entry["azimuth"] = YAML::Load(format_angle_correction(f.azimuth.correction));
-    if (f.elevation && f.elevation->fitted)
-      entry["elevation"] = YAML::Load(format_angle_correction(f.elevation->correction));
-  }
-  YAML::Emitter out;
-  out << root;
   std::string text;
-  for (const auto& line : header) text += "# " + line + "\n";
-  text += out.c_str();
-  text += "\n";
   try {
+    SiteYamlEdit edit(site);
+    YAML::Node cal = edit.map_at({"estimators", "aoa", "calibration"});
+    for (const auto& f : fits) {
+      if (!f.azimuth.fitted && !(f.elevation && f.elevation->fitted)) continue;
+      YAML::Node entry = cal[f.anchor_id];
+      if (!entry.IsMap()) {
+        cal[f.anchor_id] = YAML::Node(YAML::NodeType::Map);
+        entry = cal[f.anchor_id];
+      }
+      if (f.azimuth.fitted)
+        entry["azimuth"] = YAML::Load(format_angle_correction(f.azimuth.correction));
+      if (f.elevation && f.elevation->fitted)
+        entry["elevation"] = YAML::Load(format_angle_correction(f.elevation->correction));
+    }
+    text = edit.text(header);
     const Site back = parse_site_text(text, "the calibrated site");
     const auto parsed = parse_calibration(back.estimator_params("aoa")["calibration"]);
     for (const auto& f : fits) {
@@ -519,7 +500,7 @@ std::string calibrated_site_yaml(const Site& site, const std::vector<AnchorFit>&
         throw CalibrationError("the calibrated site lost the calibration of " + f.anchor_id);
     }
   } catch (const ConfigError& e) {
-    throw CalibrationError(std::string("the calibrated site does not parse back: ") + e.what());
+    throw CalibrationError(e.what());
   }
   return text;
 }

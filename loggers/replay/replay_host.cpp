@@ -1,6 +1,7 @@
 #include "loggers/replay/replay_host.hpp"
 
 #include <algorithm>
+#include <ips/baro_t.hpp>
 #include <ips/ble_aoa_t.hpp>
 #include <ips/imu_t.hpp>
 #include <ips/site_t.hpp>
@@ -18,9 +19,11 @@ constexpr const char* kUwbTdoa = "uwb_tdoa";
 constexpr const char* kAoa = "aoa";
 constexpr const char* kPdr = "pdr";
 constexpr const char* kIns = "ins";
+constexpr const char* kAltitude = "altitude";
 }
 
-std::vector<std::string> ReplayHost::available() { return {kUwbTwr, kUwbTdoa, kAoa, kPdr, kIns}; }
+std::vector<std::string> ReplayHost::available() { return {kUwbTwr, kUwbTdoa, kAoa, kPdr, kIns, kAltitude};
+}
 
 ReplayHost::ReplayHost(const ReplayOptions& opts, const CommonOptions& channels, Sink sink)
     : channels_(channels), sink_(std::move(sink)), opts_(opts) {
@@ -65,6 +68,12 @@ ReplayHost::ReplayHost(const ReplayOptions& opts, const CommonOptions& channels,
     ins_ = std::make_unique<ins::InsEstimator>([this, out](const pose_t& p) { emit(out, p); });
     produced_channels_.insert(out);
   }
+  if (wanted(kAltitude)) {
+    const std::string out = channels_.channel(channel::kAltitude);
+    altitude_ = std::make_unique<altitude::AltitudeEstimator>(
+        [this, out](const altitude_t& a) { emit(out, a); });
+    produced_channels_.insert(out);
+  }
   if (!opts_.site_path.empty()) apply_site(load_site_file(opts_.site_path));
 }
 
@@ -75,6 +84,7 @@ std::vector<std::string> ReplayHost::hosted() const {
   if (aoa_) names.push_back(kAoa);
   if (pdr_) names.push_back(kPdr);
   if (ins_) names.push_back(kIns);
+  if (altitude_) names.push_back(kAltitude);
   return names;
 }
 
@@ -92,11 +102,13 @@ void ReplayHost::apply_site(const Site& site) {
   if (aoa_) aoa_->set_site(site);
   if (pdr_) pdr_->set_site(site);
   if (ins_) ins_->set_site(site);
+  if (altitude_) altitude_->set_site(site);
 }
 
 void ReplayHost::finish() {
   if (tdoa_) tdoa_->flush();
   if (aoa_) aoa_->finish();
+  if (altitude_) altitude_->finish();
 }
 
 void ReplayHost::process(const std::string& channel, int64_t timestamp, const uint8_t* data,
@@ -152,6 +164,13 @@ void ReplayHost::process(const std::string& channel, int64_t timestamp, const ui
     }
     if (pdr_) pdr_->on_imu(m);
     if (ins_) ins_->on_imu(m);
+  } else if (altitude_ && channel == channels_.channel(channel::kBaro)) {
+    baro_t m;
+    if (!decode_message(m, data, size)) {
+      ++stats_.undecodable;
+      return;
+    }
+    altitude_->on_baro(m);
   }
 }
 

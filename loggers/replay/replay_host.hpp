@@ -12,6 +12,7 @@
 
 #include "core/cli.hpp"
 #include "core/site.hpp"
+#include "estimators/altitude/altitude_estimator.hpp"
 #include "estimators/aoa/aoa_estimator.hpp"
 #include "estimators/ins/ins_estimator.hpp"
 #include "estimators/pdr/pdr_estimator.hpp"
@@ -45,7 +46,8 @@ class ReplayHost {
   // One log event (channel, log timestamp, payload).
   void process(const std::string& channel, int64_t timestamp, const uint8_t* data, size_t size);
   // At the end of the log: estimators that hold inputs back (the TDoA estimator waits for a
-  // blink's last report, the AoA estimator for an epoch's window to pass) emit what they hold,
+  // blink's last report, the AoA estimator for an epoch's window to pass, the altitude estimator
+  // for the reference's next reading) emit what they hold,
   // stamped with the last event's time.
   void finish();
 
@@ -72,6 +74,7 @@ class ReplayHost {
   std::unique_ptr<aoa::AoaEstimator> aoa_;
   std::unique_ptr<pdr::PdrEstimator> pdr_;
   std::unique_ptr<ins::InsEstimator> ins_;
+  std::unique_ptr<altitude::AltitudeEstimator> altitude_;
 };
 
 }  // namespace ips::replay

@@ -1,10 +1,11 @@
 #pragma once
 // The estimator tests' in-process loop: a scenario through the simulator, each message of the
 // kinds a test asks for decoded and handed to its handler (SITE, TRUTH, UWB_RANGE, UWB_RX,
-// BLE_AOA, IMU).
+// BLE_AOA, IMU, BARO).
 #include <gtest/gtest.h>
 
 #include <functional>
+#include <ips/baro_t.hpp>
 #include <ips/ble_aoa_t.hpp>
 #include <ips/imu_t.hpp>
 #include <ips/pose_t.hpp>
@@ -25,6 +26,7 @@ struct SimHandlers {
   std::function<void(const uwb_rx_t&)> uwb_rx = nullptr;
   std::function<void(const ble_aoa_t&)> ble_aoa = nullptr;
   std::function<void(const imu_t&)> imu = nullptr;
+  std::function<void(const baro_t&)> baro = nullptr;
 };
 
 template <class Msg>
@@ -49,6 +51,7 @@ inline void run_simulated(const sim::Scenario& sc, uint64_t seed, const SimHandl
     else if (e.kind == "UWB_RX") hand_over(e, h.uwb_rx);
     else if (e.kind == "BLE_AOA") hand_over(e, h.ble_aoa);
     else if (e.kind == "IMU") hand_over(e, h.imu);
+    else if (e.kind == "BARO") hand_over(e, h.baro);
   }
 }
 

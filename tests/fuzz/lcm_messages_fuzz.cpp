@@ -3,7 +3,8 @@
 // then fed as a sequence of length-prefixed messages into the TWR tracker (NaN, inf, huge and
 // negative numbers, unknown ids, time going backwards), which must publish only finite positions
 // and never crash; UWB_RX bytes likewise into the TDoA estimator (syncs and blinks with any
-// counters, ids and times), which must publish only finite positions and clock estimates.
+// counters, ids and times), which must publish only finite positions and clock estimates;
+// BLE_AOA, IMU and BARO sequences into the AoA, PDR and altitude estimators.
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
@@ -21,6 +22,7 @@
 #include <stdexcept>
 
 #include "core/node.hpp"
+#include "estimators/altitude/altitude_estimator.hpp"
 #include "estimators/aoa/aoa_estimator.hpp"
 #include "estimators/pdr/pdr_estimator.hpp"
 #include "estimators/uwb_tdoa/tdoa_estimator.hpp"
@@ -144,13 +146,31 @@ void feed_pdr(const uint8_t* data, size_t size) {
   est.set_site(site);
   for_each_message<ips::imu_t>(data, size, [&](const ips::imu_t& m) { est.on_imu(m); });
 }
+
+// A sequence of baro_t through the altitude estimator (tags and reference stations, any times,
+// pressures, temperatures and heights; floors on, so floor detection runs too).
+void feed_altitude(const uint8_t* data, size_t size) {
+  static const ips::Site site = ips::parse_site_text(
+      "name: baro\nanchors: []\nbaro_stations: [{id: B1, position: [0.3, 0.3, 2.4]}]\n"
+      "tags: [{id: T1}]\nestimators:\n  altitude: {offsets_pa: {T1: 25.0}, "
+      "floors: {heights_m: [0, 3.5]}}\n",
+      "fuzz-baro-site");
+  ips::altitude::AltitudeEstimator est([](const ips::altitude_t& a) {
+    if (!std::isfinite(a.height_m) || !std::isfinite(a.height_std_m) ||
+        !std::isfinite(a.vertical_speed_mps))
+      throw std::logic_error("non-finite altitude published");
+  });
+  est.set_site(site);
+  for_each_message<ips::baro_t>(data, size, [&](const ips::baro_t& m) { est.on_baro(m); });
+  est.finish();
+}
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (size < 1) return 0;
   const uint8_t* d = data + 1;
   const size_t n = size - 1;
-  switch (data[0] % 15) {
+  switch (data[0] % 16) {
     case 0: decode_one<ips::site_t>(d, n); break;
     case 1: decode_one<ips::pose_t>(d, n); break;
     case 2: decode_one<ips::uwb_rx_t>(d, n); break;
@@ -165,7 +185,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     case 11: feed_tracker(d, n); break;
     case 12: feed_tdoa(d, n); break;
     case 13: feed_aoa(d, n); break;
-    default: feed_pdr(d, n); break;
+    case 14: feed_pdr(d, n); break;
+    default: feed_altitude(d, n); break;
   }
   return 0;
 }

@@ -42,3 +42,17 @@ def health(data):
                 state=r.take('b'), msgs_in=r.take('q'), msgs_out=r.take('q'),
                 parse_errors=r.take('q'), drops=r.take('q'), last_error=r.string(),
                 uptime_us=r.take('q'))
+
+
+def baro(data):
+    r = _Reader(data)
+    return dict(utime=r.take('q'), source=r.string(), sensor_id=r.string(),
+                pressure_pa=r.take('d'), temperature_c=r.take('d'), humidity_pct=r.take('d'),
+                is_reference=bool(r.take('b')), known_height_m=r.take('d'))
+
+
+def altitude(data):
+    r = _Reader(data)
+    return dict(utime=r.take('q'), source=r.string(), tag_id=r.string(), height_m=r.take('d'),
+                height_std_m=r.take('d'), vertical_speed_mps=r.take('d'), floor=r.take('i'),
+                floor_valid=bool(r.take('b')))

@@ -23,16 +23,12 @@
 #include <ips/baro_t.hpp>
 #include <memory>
 
+#include "core/barometric.hpp"
 #include "drivers/sim/sensor_model.hpp"
 
 namespace ips::sim {
 
 namespace {
-
-constexpr double kGasConstant = 8.314462618;    // J/(mol K), CODATA; the reference gives none
-constexpr double kMolarMassDryAir = 0.0289652;  // kg/mol
-constexpr double kMolarMassWater = 0.018016;    // kg/mol
-constexpr double kKelvinOffset = 273.15;
 
 struct BaroParams {
   double rate_hz = 10.0;                 // the reference's BMP280 read rate
@@ -49,6 +45,10 @@ struct BaroParams {
   double temperature_offset_sigma_c = 0.5;  // per sensor (BMP280 datasheet: +-0.5 C at 25 C)
   bool humidity_reported = false;
   double humidity_noise_sigma_pct = 1.0;
+  // Thermal settling after power-on (003 section 2.4 discarded its first 3 min): a per-sensor
+  // offset drawn N(0, warmup_sigma_pa) that decays as exp(-t / warmup_tau_s).
+  double warmup_sigma_pa = 0.0;
+  double warmup_tau_s = 60.0;
   bool on_tags = true;
   bool on_stations = true;
 };
@@ -89,17 +89,13 @@ struct Atmosphere {
   double inverse_scale_height_per_m;  // g / (R_d * T_v)
 
   static Atmosphere make(const BaroParams& p) {
-    const double t_k = p.temperature_c + kKelvinOffset;
-    // Tetens (reference 2.7), over water.
-    const double e_sat = 611.2 * std::exp(17.67 * p.temperature_c / (p.temperature_c + 243.5));
-    const double e = p.humidity_pct / 100.0 * e_sat;
-    const double t_virtual =
-        t_k / (1.0 - e / p.origin_pressure_pa * (1.0 - kMolarMassWater / kMolarMassDryAir));
-    const double r_dry = kGasConstant / kMolarMassDryAir;
-    return {p.origin_pressure_pa, p.gravity_mps2 / (r_dry * t_virtual)};
+    return {p.origin_pressure_pa,
+            barometric::inverse_scale_height_per_m(p.temperature_c, p.humidity_pct,
+                                                   p.origin_pressure_pa, p.gravity_mps2)};
   }
   double pressure_pa(double z_m, double weather_pa) const {
-    return (origin_pressure_pa + weather_pa) * std::exp(-inverse_scale_height_per_m * z_m);
+    return barometric::pressure_above_pa(origin_pressure_pa + weather_pa, z_m,
+                                         inverse_scale_height_per_m);
   }
 };
 
@@ -115,13 +111,15 @@ struct BaroSensor {
 class BaroSource : public PeriodicSource {
  public:
   BaroSource(const BaroParams& p, const Atmosphere& air, std::shared_ptr<WeatherDrift> weather,
-             BaroSensor sensor, double given_offset_pa, int64_t phase_us, std::mt19937_64 rng)
+             BaroSensor sensor, double given_offset_pa, int64_t phase_us, std::mt19937_64 rng,
+             double warmup_pa)
       : PeriodicSource(period_us(p.rate_hz), phase_us),
         p_(p),
         air_(air),
         weather_(std::move(weather)),
         sensor_(std::move(sensor)),
-        rng_(std::move(rng)) {
+        rng_(std::move(rng)),
+        warmup_pa_(warmup_pa) {
     // The sensor's constants are the first draws of its stream, drawn whether or not the offset
     // is given, so that giving one does not change the noise.
     std::normal_distribution<double> gauss(0.0, 1.0);
@@ -140,6 +138,7 @@ class BaroSource : public PeriodicSource {
     const double z = sensor_.walker ? sensor_.walker->path.at(t_s).position.z() : sensor_.fixed_z_m;
     double pressure =
         air_.pressure_pa(z, weather_->at(t_s)) + offset_pa_ + p_.noise_sigma_pa * pressure_noise;
+    if (warmup_pa_ != 0) pressure += warmup_pa_ * std::exp(-t_s / p_.warmup_tau_s);
     if (p_.resolution_pa > 0) pressure = std::round(pressure / p_.resolution_pa) * p_.resolution_pa;
     baro_t m;
     m.utime = t;
@@ -165,6 +164,7 @@ class BaroSource : public PeriodicSource {
   std::shared_ptr<WeatherDrift> weather_;
   BaroSensor sensor_;
   std::mt19937_64 rng_;
+  double warmup_pa_ = 0.0;
   double offset_pa_ = 0.0;
   double temperature_offset_c_ = 0.0;
 };
@@ -174,7 +174,7 @@ SourceList make(const YamlField& f, const SimWorld& world) {
                 "gravity_mps2", "noise_sigma_pa", "resolution_pa", "offset_sigma_pa", "offsets_pa",
                 "weather_walk_pa_10min", "weather_trend_pa_per_h", "temperature_noise_sigma_c",
                 "temperature_offset_sigma_c", "humidity_reported", "humidity_noise_sigma_pct",
-                "on_tags", "on_stations"});
+                "warmup_sigma_pa", "warmup_tau_s", "on_tags", "on_stations"});
   BaroParams p;
   p.rate_hz = param_in_range(f, "rate_hz", p.rate_hz, 0.01, 1000);
   // The sensors' range (Table 2.1: 30 to 125 kPa).
@@ -197,6 +197,8 @@ SourceList make(const YamlField& f, const SimWorld& world) {
   p.humidity_reported = f.get_bool("humidity_reported", p.humidity_reported);
   p.humidity_noise_sigma_pct =
       param_in_range(f, "humidity_noise_sigma_pct", p.humidity_noise_sigma_pct, 0, 50);
+  p.warmup_sigma_pa = param_in_range(f, "warmup_sigma_pa", p.warmup_sigma_pa, 0, 1000);
+  p.warmup_tau_s = param_in_range(f, "warmup_tau_s", p.warmup_tau_s, 1, 3600);
   p.on_tags = f.get_bool("on_tags", p.on_tags);
   p.on_stations = f.get_bool("on_stations", p.on_stations);
 
@@ -243,8 +245,11 @@ SourceList make(const YamlField& f, const SimWorld& world) {
     // Sensors spread over the period, as unsynchronised devices are.
     const int64_t phase = (static_cast<int64_t>(i) * period) / n + 3000;
     std::mt19937_64 rng = stream_rng(world.seed, sensors[i].stream);
-    out.push_back(
-        std::make_unique<BaroSource>(p, air, weather, sensors[i], given[i], phase, std::move(rng)));
+    // Its own stream, so that a warm-up changes no other value.
+    std::mt19937_64 warmup_rng = stream_rng(world.seed, sensors[i].stream + " warmup");
+    const double warmup_pa = p.warmup_sigma_pa * std::normal_distribution<double>(0, 1)(warmup_rng);
+    out.push_back(std::make_unique<BaroSource>(p, air, weather, sensors[i], given[i], phase,
+                                               std::move(rng), warmup_pa));
   }
   return out;
 }

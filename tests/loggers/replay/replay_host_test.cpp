@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <ips/altitude_t.hpp>
 #include <ips/clock_t.hpp>
 #include <ips/pose_t.hpp>
 #include <ips/step_t.hpp>
@@ -162,6 +163,29 @@ TEST(ReplayHost, HostsTheInsEstimator) {
   EXPECT_LE(poses, 200);
 }
 
+TEST(ReplayHost, HostsTheAltitudeEstimator) {
+  ReplayOptions ro;
+  ro.only = {"altitude"};
+  const auto out = replay(ro, 20, {}, "baro-steps");
+  int altitudes = 0;
+  for (size_t i = 0; i < out.size(); ++i) {
+    if (out[i].channel != "ALTITUDE") continue;
+    ++altitudes;
+    // Released by the reading that brought the reference up to the tag's time.
+    EXPECT_EQ(out[i - 1].channel, "BARO");
+    EXPECT_EQ(out[i - 1].timestamp, out[i].timestamp);
+    altitude_t a;
+    ASSERT_GT(a.decode(out[i].data.data(), 0, static_cast<int>(out[i].data.size())), 0);
+    EXPECT_EQ(a.source, "altitude");
+    EXPECT_EQ(a.tag_id, "T1");
+    EXPECT_LT(a.utime, out[i].timestamp);
+    // T1 at 1.82 m; its sensor reads 25 Pa high and the scenario's site has no offsets: 2.12 m
+    // low.
+    EXPECT_NEAR(a.height_m, 1.82 - 2.12, 0.15);
+  }
+  EXPECT_EQ(altitudes, 200);  // 10 Hz over 20 s, the last held back then released by finish()
+}
+
 TEST(ReplayHost, SameEventsSameBytes) { EXPECT_EQ(replay({}), replay({})); }
 
 TEST(ReplayHost, RegeneratedChannelsAreDroppedUnlessKept) {
@@ -190,7 +214,7 @@ TEST(ReplayHost, OnlyNamesKnownEstimators) {
     ReplayHost(ro, CommonOptions{}, [](auto&&...) {});
     FAIL();
   } catch (const ConfigError& e) {
-    EXPECT_STREQ(e.what(), "--only: unknown estimator 'teleport' (uwb_twr, uwb_tdoa, aoa, pdr, ins)");
+    EXPECT_STREQ(e.what(), "--only: unknown estimator 'teleport' (uwb_twr, uwb_tdoa, aoa, pdr, ins, altitude)");
   }
 }
 

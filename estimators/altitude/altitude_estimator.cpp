@@ -1,0 +1,289 @@
+#include "estimators/altitude/altitude_estimator.hpp"
+
+#include <cmath>
+#include <cstdio>
+#include <limits>
+
+#include "core/barometric.hpp"
+#include "core/text_escape.hpp"
+#include "estimators/altitude/models/baro_height.hpp"
+
+namespace ips::altitude {
+
+namespace {
+// The barometers' range (003 Table 2.1: 26 to 126 kPa); anything else is a corrupt reading.
+constexpr double kMinPressurePa = 30000.0;
+constexpr double kMaxPressurePa = 125000.0;
+constexpr size_t kMaxPending = 1000;  // per tag; more and the oldest are used at once
+
+std::string seconds(double s) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.1f", s);
+  return buf;
+}
+}  // namespace
+
+AltitudeParams parse_altitude_params(const YamlField& s) {
+  AltitudeParams p;
+  if (!s.defined()) return p;
+  if (!s.is_map()) s.fail("expected a map of altitude parameters");
+  s.check_keys({"reference", "offsets_pa", "humidity_pct", "temperature_c", "gravity_mps2",
+                "pressure_sigma_pa", "accel_sigma_mps2", "initial_speed_sigma_mps", "gate_sigma",
+                "max_rejections", "align_wait_s", "max_reference_age_s",
+                "reference_drift_pa_per_s", "max_gap_s", "publish_period_s", "floors",
+                "max_tags"});
+  p.reference = s.get_string("reference", p.reference);
+  const YamlField offsets = s["offsets_pa"];
+  if (offsets.defined()) {
+    if (!offsets.is_map()) offsets.fail("expected a map of sensor id: Pa");
+    for (const auto& kv : offsets.node()) {
+      if (!kv.first.IsScalar() || kv.first.Scalar().empty())
+        offsets.fail("expected a map of sensor id: Pa");
+      const std::string id = kv.first.Scalar();
+      p.offsets_pa[id] = offsets.get_double_in(id, 0.0, -10000, 10000);
+    }
+  }
+  p.humidity_pct = s.get_double_in("humidity_pct", p.humidity_pct, 0, 100);
+  p.temperature_c = s.get_double_in("temperature_c", p.temperature_c, -60, 60);
+  p.gravity_mps2 = s.get_double_in("gravity_mps2", p.gravity_mps2, 9.7, 9.9);
+  p.pressure_sigma_pa = s.get_double_in("pressure_sigma_pa", p.pressure_sigma_pa, 1e-3, 1000);
+  p.accel_sigma_mps2 = s.get_double_in("accel_sigma_mps2", p.accel_sigma_mps2, 1e-4, 100);
+  p.initial_speed_sigma_mps =
+      s.get_double_in("initial_speed_sigma_mps", p.initial_speed_sigma_mps, 1e-4, 100);
+  p.gate_sigma = s.get_double_in("gate_sigma", p.gate_sigma, 1, 1e6);
+  p.max_rejections =
+      static_cast<int>(s.get_int_in("max_rejections", p.max_rejections, 1, 1000000));
+  p.align_wait_s = s.get_double_in("align_wait_s", p.align_wait_s, 0, 60);
+  p.max_reference_age_s =
+      s.get_double_in("max_reference_age_s", p.max_reference_age_s, 0.01, 86400);
+  p.reference_drift_pa_per_s =
+      s.get_double_in("reference_drift_pa_per_s", p.reference_drift_pa_per_s, 0, 100);
+  p.max_gap_s = s.get_double_in("max_gap_s", p.max_gap_s, 0.01, 3600);
+  p.publish_period_s = s.get_double_in("publish_period_s", p.publish_period_s, 0, 3600);
+  p.max_tags = static_cast<int>(s.get_int_in("max_tags", p.max_tags, 1, 100000));
+  const YamlField floors = s["floors"];
+  if (floors.defined()) {
+    if (!floors.is_map()) floors.fail("expected a map with heights_m");
+    floors.check_keys({"heights_m", "first_index", "carry_height_m", "dwell_s"});
+    const YamlField heights = floors.required("heights_m");
+    if (!heights.is_sequence() || heights.size() < 1 || heights.size() > 1000)
+      heights.fail("expected a list of 1 to 1000 floor heights in m, ascending");
+    for (size_t i = 0; i < heights.size(); ++i) {
+      const double h = heights[i].as_double();
+      if (!(std::abs(h) <= 10000)) heights[i].fail("must be in [-10000, 10000]");
+      if (!p.floors.heights_m.empty() && !(h > p.floors.heights_m.back()))
+        heights[i].fail("floor heights must be ascending");
+      p.floors.heights_m.push_back(h);
+    }
+    p.floors.first_index =
+        static_cast<int>(floors.get_int_in("first_index", p.floors.first_index, -1000, 1000));
+    p.floors.carry_height_m =
+        floors.get_double_in("carry_height_m", p.floors.carry_height_m, -10, 10);
+    p.floors.dwell_s = floors.get_double_in("dwell_s", p.floors.dwell_s, 0, 3600);
+  }
+  return p;
+}
+
+AltitudeEstimator::AltitudeEstimator(AltitudeSink sink, std::string source_name)
+    : sink_(std::move(sink)), source_(std::move(source_name)) {}
+
+void AltitudeEstimator::set_site(const Site& site) {
+  AltitudeParams params = parse_altitude_params(site.estimator_params("altitude"));
+  params_ = std::move(params);
+  site_ = site;
+  tracks_.clear();
+  stations_.clear();
+}
+
+void AltitudeEstimator::on_baro(const baro_t& m) {
+  ++stats_.readings_in;
+  if (!site_) {
+    ++stats_.dropped_no_site;
+    return;
+  }
+  if (m.sensor_id.empty() || !plausible_utime(m.utime) ||
+      !(m.pressure_pa >= kMinPressurePa && m.pressure_pa <= kMaxPressurePa) ||
+      !(std::isnan(m.temperature_c) || std::abs(m.temperature_c) <= 100) ||
+      !(std::isnan(m.humidity_pct) || (m.humidity_pct >= 0 && m.humidity_pct <= 100))) {
+    ++stats_.dropped_invalid;
+    return;
+  }
+  const auto offset = params_.offsets_pa.find(m.sensor_id);
+  const double pressure = m.pressure_pa - (offset == params_.offsets_pa.end() ? 0 : offset->second);
+  if (m.utime > newest_utime_) newest_utime_ = m.utime;
+  if (m.is_reference) {
+    on_reference(m, pressure);
+  } else {
+    on_tag(m, pressure);
+  }
+  drain(false);
+}
+
+void AltitudeEstimator::on_reference(const baro_t& m, double pressure_pa) {
+  ++stats_.reference_readings;
+  double height = m.known_height_m;
+  if (!std::isfinite(height)) {
+    height = std::numeric_limits<double>::quiet_NaN();
+    for (const auto& st : site_->baro_stations)
+      if (st.id == m.sensor_id) height = st.position.z();
+  }
+  if (!std::isfinite(height) || std::abs(height) > 10000) {
+    ++stats_.dropped_reference_without_height;
+    problem_ = "reference " + printable(m.sensor_id) +
+               " has no known height (none in its readings, no baro station of that id in "
+               "the site): not used";
+    return;
+  }
+  auto it = stations_.find(m.sensor_id);
+  if (it == stations_.end()) {
+    if (static_cast<int>(stations_.size()) >= params_.max_tags) {
+      ++stats_.dropped_too_many_tags;
+      return;
+    }
+    it = stations_.try_emplace(m.sensor_id, Station{ReferenceSeries(
+                                                         2 * params_.max_reference_age_s)})
+             .first;
+  }
+  if (!it->second.series.add({m.utime, pressure_pa, m.temperature_c, m.humidity_pct, height}))
+    ++stats_.dropped_out_of_order;
+}
+
+void AltitudeEstimator::on_tag(const baro_t& m, double pressure_pa) {
+  ++stats_.tag_readings;
+  auto it = tracks_.find(m.sensor_id);
+  if (it == tracks_.end()) {
+    if (static_cast<int>(tracks_.size()) >= params_.max_tags) {
+      ++stats_.dropped_too_many_tags;
+      return;
+    }
+    it = tracks_.try_emplace(m.sensor_id).first;
+  }
+  Track& t = it->second;
+  if (m.utime <= t.last_in_utime) {
+    ++stats_.dropped_out_of_order;
+    return;
+  }
+  t.last_in_utime = m.utime;
+  t.pending.push_back({m.utime, pressure_pa, m.temperature_c});
+}
+
+const std::pair<const std::string, AltitudeEstimator::Station>*
+AltitudeEstimator::pick_reference(utime_t t) const {
+  const std::pair<const std::string, Station>* best = nullptr;
+  double best_age = std::numeric_limits<double>::infinity();
+  for (const auto& kv : stations_) {
+    const auto at = kv.second.series.at(t);
+    if (!at || at->age_s > params_.max_reference_age_s) continue;
+    if (kv.first == params_.reference) return &kv;
+    if (at->age_s < best_age) {
+      best = &kv;
+      best_age = at->age_s;
+    }
+  }
+  return best;
+}
+
+void AltitudeEstimator::drain(bool flush) {
+  const utime_t wait_us = s_to_utime(params_.align_wait_s);
+  for (auto& [tag_id, t] : tracks_) {
+    while (!t.pending.empty()) {
+      const TagReading r = t.pending.front();
+      const auto* station = pick_reference(r.utime);
+      const bool covered = station && station->second.series.newest_utime() >= r.utime;
+      if (!covered && !flush && newest_utime_ - r.utime < wait_us &&
+          t.pending.size() <= kMaxPending)
+        break;
+      t.pending.pop_front();
+      use(tag_id, t, r);
+    }
+  }
+}
+
+void AltitudeEstimator::finish() { drain(true); }
+
+void AltitudeEstimator::use(const std::string& tag_id, Track& t, const TagReading& r) {
+  const auto* station = pick_reference(r.utime);
+  if (!station) {
+    if (stations_.empty()) {
+      ++stats_.dropped_no_reference;
+      problem_ = "no reference barometer heard yet: no altitude for " + printable(tag_id);
+      return;
+    }
+    ++stats_.dropped_stale_reference;
+    auto newest = stations_.begin();
+    for (auto it = stations_.begin(); it != stations_.end(); ++it)
+      if (it->second.series.newest_utime() > newest->second.series.newest_utime()) newest = it;
+    const std::string& id = newest->first;
+    const double age = utime_to_s(r.utime - newest->second.series.newest_utime());
+    problem_ = "reference " + printable(id) + " stale: its newest reading is " + seconds(age) +
+               " s older than " + printable(tag_id) + "'s (max_reference_age_s " +
+               seconds(params_.max_reference_age_s) + ")";
+    return;
+  }
+  if (t.reference_id != station->first) {
+    if (!t.reference_id.empty()) ++stats_.reference_switches;
+    t.reference_id = station->first;
+  }
+  const ReferenceAt ref = *station->second.series.at(r.utime);
+  const ReferenceReading& rr = ref.reading;
+  const double temperature_c = std::isfinite(rr.temperature_c) ? rr.temperature_c
+                               : std::isfinite(r.temperature_c) ? r.temperature_c
+                                                                : params_.temperature_c;
+  const double humidity = std::isfinite(rr.humidity_pct) ? rr.humidity_pct : params_.humidity_pct;
+  BaroReference br;
+  br.pressure_pa = rr.pressure_pa;
+  br.height_m = rr.height_m;
+  br.inverse_scale_height = barometric::inverse_scale_height_per_m(
+      temperature_c, humidity, rr.pressure_pa, params_.gravity_mps2);
+  const double drift = params_.reference_drift_pa_per_s * ref.age_s;
+  const double var = params_.pressure_sigma_pa * params_.pressure_sigma_pa + drift * drift;
+
+  CvFilter<1>& f = t.filter;
+  bool restart = !t.initialised || utime_to_s(r.utime - t.last_utime) > params_.max_gap_s;
+  if (!restart) {
+    f.predict(utime_to_s(r.utime - t.last_utime), params_.accel_sigma_mps2 * params_.accel_sigma_mps2);
+    const UpdateResult u = update_baro_height<2>(f.x, f.P, 0, r.pressure_pa, br, var,
+                                                 params_.gate_sigma * params_.gate_sigma);
+    if (u.accepted) {
+      ++stats_.used;
+      t.rejections = 0;
+    } else {
+      ++stats_.rejected;
+      restart = ++t.rejections >= params_.max_rejections;
+    }
+  }
+  if (restart) {
+    if (t.initialised) ++stats_.restarts;
+    ++stats_.used;
+    const double dpdh = br.inverse_scale_height * r.pressure_pa;
+    f.x << br.height_m + barometric::height_above_m(br.pressure_pa, r.pressure_pa,
+                                                     br.inverse_scale_height),
+        0.0;
+    f.P << var / (dpdh * dpdh), 0, 0,
+        params_.initial_speed_sigma_mps * params_.initial_speed_sigma_mps;
+    t.initialised = true;
+    t.rejections = 0;
+  }
+  t.last_utime = r.utime;
+  t.floor.update(params_.floors, r.utime, f.x(0));
+  if (t.last_publish_utime == 0 ||
+      r.utime - t.last_publish_utime >= s_to_utime(params_.publish_period_s))
+    publish(tag_id, t, r.utime);
+}
+
+void AltitudeEstimator::publish(const std::string& tag_id, Track& t, utime_t utime) {
+  altitude_t a;
+  a.utime = utime;
+  a.source = source_;
+  a.tag_id = tag_id;
+  a.height_m = t.filter.x(0);
+  a.height_std_m = std::sqrt(std::max(0.0, t.filter.P(0, 0)));
+  a.vertical_speed_mps = t.filter.x(1);
+  a.floor_valid = t.floor.valid();
+  a.floor = a.floor_valid ? t.floor.floor(params_.floors) : 0;
+  t.last_publish_utime = utime;
+  ++stats_.altitudes_out;
+  sink_(a);
+}
+
+}  // namespace ips::altitude

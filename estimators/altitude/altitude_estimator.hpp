@@ -1,0 +1,136 @@
+#pragma once
+// Differential barometric altitude (../shared/reference/003_baro.md): baro_t readings of tag
+// barometers and of reference stations at known heights -> altitude_t per tag on ALTITUDE.
+//   1. Each reading is corrected by its sensor's calibrated offset (003 (5.2); offsets_pa, from
+//      `ips-altitude calibrate`).
+//   2. A tag reading is paired with the reference's pressure at the same time: interpolated
+//      between the reference readings around it, waiting up to align_wait_s of message time for
+//      the next one; else the newest is held, its weather drift added to the variance; older than
+//      max_reference_age_s the reference is stale, the reading is not used and it is reported.
+//   3. A Kalman filter on height and vertical speed (constant velocity, white-noise acceleration)
+//      takes the tag's pressure as a measurement through the hypsometric equation with virtual
+//      temperature (models/baro_height.hpp: 003 (4.31)-(4.32)), with the reference's measured
+//      temperature (003: 7 cm per 10 C at 2 m, not negligible) and its humidity, else a constant
+//      humidity (003: 50 %). Low lag: 003's 150-sample moving average delays by 7.5 s.
+//   4. Optionally the floor (floor_detector.hpp) from the floor heights in the site.
+// Pure: takes messages, emits altitude_t through a callback, never reads a clock.
+#include <deque>
+#include <functional>
+#include <ips/altitude_t.hpp>
+#include <ips/baro_t.hpp>
+#include <map>
+#include <optional>
+#include <string>
+#include <utility>
+
+#include "core/cv_filter.hpp"
+#include "core/site.hpp"
+#include "estimators/altitude/floor_detector.hpp"
+#include "estimators/altitude/reference_series.hpp"
+
+namespace ips::altitude {
+
+struct AltitudeParams {
+  std::string reference;                    // preferred station id; empty: the freshest
+  std::map<std::string, double> offsets_pa;  // per sensor id, subtracted from its readings
+  double humidity_pct = 50.0;     // when the reference does not measure it (003's EKF: 50 %)
+  double temperature_c = 20.0;    // when neither the reference nor the tag reports one
+  double gravity_mps2 = 9.81;     // 003: a constant g
+  double pressure_sigma_pa = 0.5;  // one tag reading against the reference (2 x BMP280: 0.28)
+  double accel_sigma_mps2 = 0.5;   // white-noise vertical acceleration: PSD sigma^2 per Hz
+  double initial_speed_sigma_mps = 0.5;
+  double gate_sigma = 5.0;         // innovations beyond this many sigmas are rejected
+  int max_rejections = 20;         // consecutive rejections before the track restarts
+  double align_wait_s = 0.5;       // a tag reading waits this long for the next reference one
+  double max_reference_age_s = 10.0;
+  double reference_drift_pa_per_s = 0.03;  // a held reference's drift (a front: 100 Pa/h)
+  double max_gap_s = 5.0;          // a longer gap between a tag's readings restarts its track
+  double publish_period_s = 0.0;   // 0: one altitude per tag reading
+  FloorParams floors;
+  int max_tags = 1000;
+};
+
+// Reads `estimators.altitude` of the site; throws ConfigError naming file, line and field.
+AltitudeParams parse_altitude_params(const YamlField& section);
+
+struct AltitudeStats {
+  int64_t readings_in = 0;
+  int64_t tag_readings = 0;
+  int64_t reference_readings = 0;
+  int64_t used = 0;      // tag readings the filter took
+  int64_t rejected = 0;  // beyond the gate
+  int64_t restarts = 0;  // after max_rejections or a gap
+  int64_t dropped_invalid = 0;       // no id, implausible time, pressure, temperature or humidity
+  int64_t dropped_out_of_order = 0;  // not after the same sensor's previous reading
+  int64_t dropped_no_site = 0;
+  int64_t dropped_too_many_tags = 0;
+  int64_t dropped_reference_without_height = 0;  // neither known_height_m nor a site station
+  int64_t dropped_no_reference = 0;              // no reference station heard yet
+  int64_t dropped_stale_reference = 0;           // the reference's newest reading too old
+  int64_t reference_switches = 0;
+  int64_t altitudes_out = 0;
+};
+
+class AltitudeEstimator {
+ public:
+  using AltitudeSink = std::function<void(const altitude_t&)>;
+  explicit AltitudeEstimator(AltitudeSink sink, std::string source_name = "altitude");
+
+  // Parameters and station heights; resets all tracks. Throws ConfigError on bad parameters
+  // (the estimator keeps its previous site then).
+  void set_site(const Site& site);
+  bool has_site() const { return site_.has_value(); }
+  void on_baro(const baro_t& msg);
+  // End of input (replay): tag readings still waiting for a reference reading are used with the
+  // newest one.
+  void finish();
+
+  const AltitudeStats& stats() const { return stats_; }
+  const AltitudeParams& params() const { return params_; }
+  // The latest reference problem, e.g. "reference B1 stale: its newest reading is 12.3 s older
+  // than T1's"; empty when there was none. Cleared by take_problem().
+  std::string take_problem() { return std::exchange(problem_, std::string()); }
+
+ private:
+  struct TagReading {
+    utime_t utime;
+    double pressure_pa;  // offset-corrected
+    double temperature_c;
+  };
+  struct Track {
+    std::deque<TagReading> pending;  // waiting for the reference to cover their time
+    utime_t last_in_utime = 0;
+    bool initialised = false;
+    utime_t last_utime = 0;
+    CvFilter<1> filter;  // height, vertical speed
+    int rejections = 0;
+    std::string reference_id;
+    FloorDetector floor;
+    utime_t last_publish_utime = 0;
+  };
+  struct Station {
+    ReferenceSeries series;
+    utime_t last_in_utime = 0;
+  };
+
+  void on_reference(const baro_t& m, double pressure_pa);
+  void on_tag(const baro_t& m, double pressure_pa);
+  // Uses every pending reading whose reference is there, or which has waited long enough.
+  void drain(bool flush);
+  // The reference station to use at time t (the preferred one, else the freshest), or nullptr.
+  const std::pair<const std::string, Station>* pick_reference(utime_t t) const;
+  void use(const std::string& tag_id, Track& t, const TagReading& r);
+  void publish(const std::string& tag_id, Track& t, utime_t utime);
+
+  AltitudeSink sink_;
+  std::string source_;
+  std::optional<Site> site_;
+  AltitudeParams params_;
+  std::map<std::string, Track> tracks_;
+  std::map<std::string, Station> stations_;
+  utime_t newest_utime_ = 0;  // message time: the newest reading of any sensor
+  AltitudeStats stats_;
+  std::string problem_;
+};
+
+}  // namespace ips::altitude

@@ -1,0 +1,1 @@
+# ips-baro tests (being written).
