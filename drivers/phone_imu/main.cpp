@@ -29,7 +29,7 @@
 #include "core/progress.hpp"
 #include "core/text_escape.hpp"
 #include "drivers/phone_imu/csv_row.hpp"
-#include "drivers/phone_imu/error_limiter.hpp"
+#include "core/error_limiter.hpp"
 #include "drivers/phone_imu/http_server.hpp"
 #include "drivers/phone_imu/phone_streams.hpp"
 #include "drivers/phone_imu/sensor_logger_json.hpp"
@@ -37,6 +37,7 @@
 namespace {
 
 using namespace ips::phone_imu;
+using ips::ErrorLimiter;
 
 constexpr const char* kProgram = "ips-phone-imu";
 constexpr int64_t kFileReasonsLogged = 20;

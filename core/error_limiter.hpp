@@ -8,7 +8,7 @@
 #include <optional>
 #include <string>
 
-namespace ips::phone_imu {
+namespace ips {
 
 class ErrorLimiter {
  public:
@@ -40,4 +40,4 @@ class ErrorLimiter {
   std::map<std::string, State> kinds_;
 };
 
-}  // namespace ips::phone_imu
+}  // namespace ips

@@ -1,0 +1,106 @@
+#!/usr/bin/env python3
+"""A fake serial barometer on a pseudo-terminal for the ips-baro integration test: what the
+Arduino sketch of docs/hardware/barometer.md prints ("P <Pa> T <degC> [H <%>]", CRLF), plus the
+bad lines a real one can print (a failed read gives "nan", a wrong wiring 0, garbage at a
+reset).
+
+ips-baro opens the slave side through a symbolic link we control (LINK -> /dev/pts/N), the way
+udev gives a USB serial adapter a stable name. "Unplugging" closes the master and removes the
+link (a hang-up, then the node is gone), as when the USB cable is pulled.
+
+  fake_baro_serial.py LINK DRIVER_LOG WORK
+
+writes WORK/sent.json (every line with the wall time before its write, and the unplug and
+replug times) and WORK/done, then waits for WORK/stop.
+"""
+import json
+import os
+import sys
+import time
+import tty
+
+
+class Device:
+    def __init__(self, link):
+        self.link, self.master, self.slave = link, None, None
+
+    def plug(self):
+        self.master, self.slave = os.openpty()
+        tty.setraw(self.master)
+        os.symlink(os.ttyname(self.slave), self.link)
+
+    def unplug(self):
+        os.close(self.master)
+        os.close(self.slave)
+        os.unlink(self.link)
+
+    def write(self, data):
+        os.write(self.master, data if isinstance(data, bytes) else data.encode('latin-1'))
+
+
+def wait_for(predicate, timeout_s, what):
+    end = time.monotonic() + timeout_s
+    while not predicate():
+        if time.monotonic() > end:
+            sys.exit(f'fake barometer: timed out waiting for {what}')
+        time.sleep(0.02)
+
+
+def opened_count(log, link):
+    try:
+        with open(log, encoding='utf-8', errors='replace') as f:
+            return f.read().count(f' opened {link} ')
+    except FileNotFoundError:
+        return 0
+
+
+def main(link, log, work):
+    dev = Device(link)
+    sent = []
+
+    def line(text, end='\r\n', pause=0.05):
+        sent.append({'t_us': int(time.time() * 1e6), 'text': text})
+        dev.write(text + end)
+        time.sleep(pause)
+
+    def mark(what):
+        sent.append({'t_us': int(time.time() * 1e6), 'text': what})
+
+    dev.plug()
+    wait_for(lambda: opened_count(log, link) == 1, 10, 'the driver to open the device')
+    time.sleep(0.2)
+    line('# ips-baro sketch: BMP280 at 0x76')
+    line('P 101325.12 T 21.43 H 45.2')
+    line('P  101324.50\tT 21.44  ')                    # no H; extra blanks
+    line('P 0 T 21.40')                                # bad: reported
+    line('P 101324.00 T nan')                          # bad: held back (same second)
+    line('P 101323.75 T 21.45 H 120.0')                # bad: held back
+    sent.append({'t_us': int(time.time() * 1e6), 'text': 'P 101323.25 T 21.46 H 44.9'})
+    dev.write('P 101323.25 T 2')                       # one line in two writes
+    time.sleep(0.05)
+    dev.write('1.46 H 44.9\r\n')
+    time.sleep(1.3)                                    # past the report limit's second
+    line(b'garbage\x00\xff'.decode('latin-1'))         # bad: reported, with the 2 held back
+    time.sleep(1.1)                                    # >= one HEALTH with that reason
+    line('P 101322', end='', pause=0.2)                # cut by the unplug
+    mark('unplug')
+    dev.unplug()
+    time.sleep(1.5)                                    # >= one HEALTH while it is away
+    dev.plug()
+    mark('replug')
+    wait_for(lambda: opened_count(log, link) == 2, 5, 'the driver to reopen the device')
+    time.sleep(0.1)
+    line('P 101322.00 T 21.47', end='\n')              # LF only
+    line('T -5.5 P 101321.5')                          # any order
+    time.sleep(0.3)
+    with open(os.path.join(work, 'sent.json'), 'w') as f:
+        json.dump(sent, f)
+    open(os.path.join(work, 'done'), 'w').close()
+    wait_for(lambda: os.path.exists(os.path.join(work, 'stop')), 30, 'the end of the test')
+    dev.unplug()
+
+
+if __name__ == '__main__':
+    if len(sys.argv) != 4:
+        sys.exit('usage: fake_baro_serial.py LINK DRIVER_LOG WORK')
+    main(*sys.argv[1:])
