@@ -45,6 +45,17 @@ inline bool parse_integer(std::string_view field, int64_t& value) {
   return true;
 }
 
+// An id a device reports or a user gives (anchor, tag, sensor): 1 to max_length characters of
+// [A-Za-z0-9_.:-], so that it is safe in a channel table, a log line and a file name.
+inline bool valid_device_id(std::string_view id, size_t max_length = 32) {
+  if (id.empty() || id.size() > max_length) return false;
+  for (char c : id)
+    if (!((c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '_' ||
+          c == '.' || c == ':' || c == '-'))
+      return false;
+  return true;
+}
+
 inline bool printable_ascii(std::string_view s) {
   for (char c : s)
     if (c < 0x20 || c > 0x7e) return false;

@@ -16,6 +16,7 @@ class SiteYamlEdit {
   // Throws ConfigError when the site's YAML does not parse or is not a map.
   explicit SiteYamlEdit(const Site& site);
 
+  YAML::Node root() { return root_; }
   // The map at root.k1.k2..., created where missing; ConfigError when something that is not a map
   // (nor null) is in the way.
   YAML::Node map_at(std::initializer_list<std::string> keys);

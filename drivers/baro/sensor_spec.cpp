@@ -29,14 +29,7 @@ std::string height_text(double h) { return format_number(h) + " m"; }
 
 }  // namespace
 
-bool valid_sensor_id(std::string_view id) {
-  if (id.empty() || id.size() > kMaxIdLength) return false;
-  for (char c : id)
-    if (!((c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '_' ||
-          c == '.' || c == ':' || c == '-'))
-      return false;
-  return true;
-}
+bool valid_sensor_id(std::string_view id) { return valid_device_id(id, kMaxIdLength); }
 
 bool parse_iio_spec(std::string_view text, SensorSpec& out, std::string& reason) {
   std::string_view id, target;

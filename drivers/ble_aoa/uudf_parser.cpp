@@ -67,14 +67,7 @@ bool number_in(std::string_view text, double lo, double hi, double& v) {
 
 }  // namespace
 
-bool valid_id(std::string_view id) {
-  if (id.empty() || id.size() > kMaxIdLength) return false;
-  for (char c : id)
-    if (!((c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '_' ||
-          c == '.' || c == ':' || c == '-'))
-      return false;
-  return true;
-}
+bool valid_id(std::string_view id) { return valid_device_id(id, kMaxIdLength); }
 
 UudfParseResult parse_uudf_line(std::string_view line) {
   UudfParseResult r;
