@@ -1,7 +1,7 @@
 #pragma once
 // The estimator tests' in-process loop: a scenario through the simulator, each message of the
 // kinds a test asks for decoded and handed to its handler (SITE, TRUTH, UWB_RANGE, UWB_RX,
-// BLE_AOA, IMU, BARO).
+// BLE_AOA, IMU, BARO, INS_MODULE).
 #include <gtest/gtest.h>
 
 #include <functional>
@@ -27,6 +27,7 @@ struct SimHandlers {
   std::function<void(const ble_aoa_t&)> ble_aoa = nullptr;
   std::function<void(const imu_t&)> imu = nullptr;
   std::function<void(const baro_t&)> baro = nullptr;
+  std::function<void(const pose_t&)> ins_module = nullptr;
 };
 
 template <class Msg>
@@ -52,6 +53,7 @@ inline void run_simulated(const sim::Scenario& sc, uint64_t seed, const SimHandl
     else if (e.kind == "BLE_AOA") hand_over(e, h.ble_aoa);
     else if (e.kind == "IMU") hand_over(e, h.imu);
     else if (e.kind == "BARO") hand_over(e, h.baro);
+    else if (e.kind == "INS_MODULE") hand_over(e, h.ins_module);
   }
 }
 

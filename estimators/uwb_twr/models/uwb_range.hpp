@@ -29,23 +29,25 @@ struct RangeUpdate {
   double normalised = 0;    // innovation / sqrt(H P H' + r_var)
 };
 
-template <int D>
-RangeUpdate range_update(CvFilter<D>& f, const Eigen::Vector3d& anchor, double height,
-                         double range_m, const RangeNoise& noise) {
+// On any state whose first D elements are the position (D = 2: the height fixed at `height`):
+// the tracker's constant-velocity filter, and ips-fuse's filter.
+template <int D, int N>
+RangeUpdate range_update_state(Vec<N>& x, Mat<N>& P, const Eigen::Vector3d& anchor,
+                               double height, double range_m, const RangeNoise& noise) {
   Eigen::Vector3d p;
   if constexpr (D == 2) {
-    p << f.x(0), f.x(1), height;
+    p << x(0), x(1), height;
   } else {
-    p = f.x.template head<3>();
+    p = x.template head<3>();
   }
   const Eigen::Vector3d d = p - anchor;
   const double predicted = std::max(d.norm(), 1e-6);
-  Mat<1, 2 * D> H = Mat<1, 2 * D>::Zero();
+  Mat<1, N> H = Mat<1, N>::Zero();
   H.template head<D>() = (d.template head<D>() / predicted).transpose();
   RangeUpdate out;
   out.innovation_m = range_m - predicted;
   // Only the position block of H is non-zero.
-  const double hph = H.template head<D>() * f.P.template topLeftCorner<D, D>() *
+  const double hph = H.template head<D>() * P.template topLeftCorner<D, D>() *
                      H.template head<D>().transpose();
   const double S = hph + noise.r_var;
   if (!(S > 0) || !std::isfinite(out.innovation_m)) return out;
@@ -57,9 +59,14 @@ RangeUpdate range_update(CvFilter<D>& f, const Eigen::Vector3d& anchor, double h
     r_var *= out.normalised / noise.downweight_sigma;
     out.downweighted = true;
   }
-  out.accepted =
-      scalar_update<2 * D>(f.x, f.P, H, out.innovation_m, r_var).accepted;
+  out.accepted = scalar_update<N>(x, P, H, out.innovation_m, r_var).accepted;
   return out;
+}
+
+template <int D>
+RangeUpdate range_update(CvFilter<D>& f, const Eigen::Vector3d& anchor, double height,
+                         double range_m, const RangeNoise& noise) {
+  return range_update_state<D, 2 * D>(f.x, f.P, anchor, height, range_m, noise);
 }
 
 }  // namespace ips::uwb_twr

@@ -1,0 +1,524 @@
+#include "fusion/fuse_estimator.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "core/geometry.hpp"
+#include "core/multilateration.hpp"
+#include "estimators/uwb_twr/models/uwb_range.hpp"
+#include "fusion/models/height.hpp"
+#include "fusion/models/position.hpp"
+
+namespace ips::fusion {
+
+namespace {
+constexpr double kMaxRangeM = 1000.0;
+constexpr double kMaxCoordinateM = 1e5;
+constexpr double kPlanarVar = 1e-12;  // z and vz in 2D: known
+constexpr size_t kMaxHistory = 10000;  // per tag, whatever max_delay_s allows
+
+bool finite_position(const pose_t& m) {
+  for (double v : m.position)
+    if (!std::isfinite(v) || std::abs(v) > kMaxCoordinateM) return false;
+  return true;
+}
+
+// A pose's position covariance, or nullopt when it has none usable (NaN, not positive).
+std::optional<Eigen::Matrix3d> pose_covariance(const pose_t& m, bool horizontal_only) {
+  Eigen::Matrix3d c;
+  for (int i = 0; i < 9; ++i) c(i / 3, i % 3) = m.position_cov[i];
+  const int n = horizontal_only ? 2 : 3;
+  if (!c.topLeftCorner(n, n).allFinite()) return std::nullopt;
+  for (int i = 0; i < n; ++i)
+    if (!(c(i, i) > 0)) return std::nullopt;
+  return c;
+}
+}  // namespace
+
+FuseParams parse_fuse_params(const YamlField& s) {
+  FuseParams p;
+  if (!s.defined()) return p;
+  if (!s.is_map()) s.fail("expected a map of fuse parameters");
+  s.check_keys({"force_3d", "range_sigma_m", "gate_sigma", "nlos_gate_sigma",
+                "nlos_downweight_sigma", "accel_psd", "displacement", "displacement_sigma_per_m",
+                "displacement_sigma_min_m", "heading_bias_sigma_deg",
+                "heading_bias_walk_deg_per_sqrt_s", "start_sigma_m", "height_gate_sigma",
+                "pose_gate_sigma", "epoch_window_s", "max_delay_s", "reinit_after_rejections",
+                "publish_period_s", "max_tags"});
+  p.force_3d = s.get_bool("force_3d", p.force_3d);
+  p.range_sigma_m = s.get_double_in("range_sigma_m", p.range_sigma_m, 1e-4, 100);
+  p.gate_sigma = s.get_double_in("gate_sigma", p.gate_sigma, 0.5, 1e6);
+  p.nlos_gate_sigma = s.get_double_in("nlos_gate_sigma", p.nlos_gate_sigma, 0.5, 1e6);
+  p.nlos_downweight_sigma =
+      s.get_double_in("nlos_downweight_sigma", p.nlos_downweight_sigma, 0.1, 1e6);
+  p.accel_psd = s.get_double_in("accel_psd", p.accel_psd, 1e-6, 1000);
+  const std::string d = s.get_string("displacement", "auto");
+  if (d == "auto") p.displacement = DisplacementSource::kAuto;
+  else if (d == "ins_module") p.displacement = DisplacementSource::kInsModule;
+  else if (d == "pose_ins") p.displacement = DisplacementSource::kPoseIns;
+  else if (d == "step") p.displacement = DisplacementSource::kStep;
+  else if (d == "none") p.displacement = DisplacementSource::kNone;
+  else s["displacement"].fail("expected auto, ins_module, pose_ins, step or none");
+  p.displacement_sigma_per_m =
+      s.get_double_in("displacement_sigma_per_m", p.displacement_sigma_per_m, 0, 10);
+  p.displacement_sigma_min_m =
+      s.get_double_in("displacement_sigma_min_m", p.displacement_sigma_min_m, 1e-6, 100);
+  p.heading_bias_sigma_deg =
+      s.get_double_in("heading_bias_sigma_deg", p.heading_bias_sigma_deg, 0, 180);
+  p.heading_bias_walk_deg_per_sqrt_s = s.get_double_in(
+      "heading_bias_walk_deg_per_sqrt_s", p.heading_bias_walk_deg_per_sqrt_s, 0, 100);
+  p.start_sigma_m = s.get_double_in("start_sigma_m", p.start_sigma_m, 1e-4, 1e4);
+  p.height_gate_sigma = s.get_double_in("height_gate_sigma", p.height_gate_sigma, 0.5, 1e6);
+  p.pose_gate_sigma = s.get_double_in("pose_gate_sigma", p.pose_gate_sigma, 0.5, 1e6);
+  p.epoch_window_s = s.get_double_in("epoch_window_s", p.epoch_window_s, 0.001, 60);
+  p.max_delay_s = s.get_double_in("max_delay_s", p.max_delay_s, 0, 60);
+  p.reinit_after_rejections =
+      static_cast<int>(s.get_int_in("reinit_after_rejections", p.reinit_after_rejections, 1,
+                                    1000000));
+  p.publish_period_s = s.get_double_in("publish_period_s", p.publish_period_s, 0, 3600);
+  p.max_tags = static_cast<int>(s.get_int_in("max_tags", p.max_tags, 1, 100000));
+  return p;
+}
+
+FuseEstimator::FuseEstimator(PoseSink sink, std::string source_name)
+    : sink_(std::move(sink)), source_(std::move(source_name)) {}
+
+void FuseEstimator::set_site(const Site& site) {
+  // The ranging noise is the UWB system's: estimators.uwb_twr's unless estimators.fuse says.
+  FuseParams params = parse_fuse_params(site.estimator_params("fuse"));
+  const YamlField fuse = site.estimator_params("fuse");
+  const YamlField twr = site.estimator_params("uwb_twr");
+  if (!fuse["range_sigma_m"].defined() && twr["range_sigma_m"].defined())
+    params.range_sigma_m = twr.get_double_in("range_sigma_m", params.range_sigma_m, 1e-4, 100);
+  params_ = params;
+  site_ = site;
+  tracks_.clear();
+}
+
+std::optional<FuseFilter> FuseEstimator::filter(const std::string& tag_id) const {
+  const auto it = tracks_.find(tag_id);
+  if (it == tracks_.end() || !it->second.initialised) return std::nullopt;
+  return it->second.state.filter;
+}
+
+double FuseEstimator::tag_height(const std::string& tag_id) const {
+  const Tag* tag = site_->find_tag(tag_id);
+  return tag ? tag->height_m : std::numeric_limits<double>::quiet_NaN();
+}
+
+bool FuseEstimator::planar_for(const std::string& tag_id) const {
+  return !params_.force_3d && std::isfinite(tag_height(tag_id));
+}
+
+FuseEstimator::Track* FuseEstimator::track_for(const std::string& tag_id, utime_t t) {
+  ++stats_.messages_in;
+  if (!site_) {
+    ++stats_.dropped_no_site;
+    return nullptr;
+  }
+  if (tag_id.empty() || !plausible_utime(t)) {
+    ++stats_.dropped_invalid;
+    return nullptr;
+  }
+  auto it = tracks_.find(tag_id);
+  if (it == tracks_.end()) {
+    if (static_cast<int>(tracks_.size()) >= params_.max_tags) {
+      ++stats_.dropped_too_many_tags;
+      return nullptr;
+    }
+    it = tracks_.try_emplace(tag_id).first;
+  }
+  Track& track = it->second;
+  // A start pose in the site wins over everything else.
+  const Tag* tag = site_->find_tag(tag_id);
+  if (!track.initialised && tag && tag->has_start()) {
+    Eigen::Vector3d p = tag->start_position;
+    if (!std::isfinite(p.z())) p.z() = std::isfinite(tag->height_m) ? tag->height_m : 0.0;
+    start(tag_id, track, t, p, params_.start_sigma_m);
+  }
+  return &track;
+}
+
+void FuseEstimator::start(const std::string& tag_id, Track& t, utime_t time,
+                          const Eigen::Vector3d& p, double sigma_m) {
+  FuseFilter f;
+  f.planar = planar_for(tag_id);
+  f.x.head<3>() = p;
+  f.P.setZero();
+  const double bias_sigma = deg_to_rad(params_.heading_bias_sigma_deg);
+  for (int i = 0; i < 3; ++i) {
+    f.P(i, i) = sigma_m * sigma_m;
+    f.P(kVel + i, kVel + i) = 1.0;
+  }
+  f.P(kPsi, kPsi) = std::max(bias_sigma * bias_sigma, 1e-12);
+  if (f.planar) {
+    f.x(2) = tag_height(tag_id);
+    f.P(2, 2) = kPlanarVar;
+    f.P(kVel + 2, kVel + 2) = kPlanarVar;
+  }
+  if (t.initialised) ++stats_.restarts;
+  t.initialised = true;
+  t.state = Snapshot{time, f, time, 0};
+  t.base = t.state;
+  t.history.clear();
+  t.snapshots.clear();
+  t.init_ranges.clear();
+  t.newest = std::max(t.newest, time);
+  t.tally.restart(0, 0);
+  ++stats_.initialisations;
+}
+
+void FuseEstimator::try_start_from_ranges(const std::string& tag_id, Track& t) {
+  const utime_t newest = t.init_ranges.back().t;
+  while (!t.init_ranges.empty() &&
+         t.init_ranges.front().t < newest - s_to_utime(params_.epoch_window_s))
+    t.init_ranges.pop_front();
+  // The newest range of each anchor.
+  std::map<int, double> latest;
+  for (const auto& m : t.init_ranges) latest[m.anchor] = m.value;
+  const bool planar = planar_for(tag_id);
+  if (static_cast<int>(latest.size()) < (planar ? 3 : 4)) return;
+  std::vector<RangeObservation> obs;
+  for (const auto& [a, r] : latest) obs.push_back({site_->anchors[static_cast<size_t>(a)].position, r});
+  MultilaterationOptions o;
+  o.fixed_height = planar;
+  o.height_m = planar ? tag_height(tag_id) : std::numeric_limits<double>::quiet_NaN();
+  const MultilaterationResult fix =
+      multilaterate(obs, o, MultilaterationSolver::kLevenbergMarquardt);
+  if (!fix.ok) return;
+  const double sigma = std::max(params_.range_sigma_m,
+                                std::sqrt(std::max(0.0, fix.covariance_unit.trace())) *
+                                    params_.range_sigma_m);
+  start(tag_id, t, newest, fix.position, sigma);
+}
+
+void FuseEstimator::predict(const Track& t, Snapshot& s, utime_t to) const {
+  const double psi_walk = std::pow(deg_to_rad(params_.heading_bias_walk_deg_per_sqrt_s), 2);
+  utime_t cursor = s.t;
+  if (to <= cursor) return;
+  for (const Measurement& d : t.history) {
+    if (d.kind != Measurement::Kind::kDisplacement || d.t <= cursor || d.t0 >= to) continue;
+    const utime_t a = std::max(d.t0, cursor), b = std::min(d.t, to);
+    if (b <= a) continue;
+    if (a > cursor) s.filter.predict_cv(utime_to_s(a - cursor), params_.accel_psd, psi_walk);
+    const double fraction = static_cast<double>(b - a) / static_cast<double>(d.t - d.t0);
+    const Eigen::Vector3d part = fraction * d.vec;
+    const double sigma = std::max(params_.displacement_sigma_min_m,
+                                  params_.displacement_sigma_per_m * part.norm());
+    s.filter.predict_displacement(part, utime_to_s(b - a), sigma, psi_walk);
+    cursor = b;
+  }
+  if (cursor < to) s.filter.predict_cv(utime_to_s(to - cursor), params_.accel_psd, psi_walk);
+  s.t = to;
+}
+
+void FuseEstimator::apply(const std::string& tag_id, Track& t, Snapshot& s,
+                          const Measurement& m, bool live) {
+  predict(t, s, m.t);
+  FuseFilter& f = s.filter;
+  switch (m.kind) {
+    case Measurement::Kind::kRange: {
+      uwb_twr::RangeNoise noise;
+      noise.r_var = params_.range_sigma_m * params_.range_sigma_m;
+      noise.gate_chi2 = params_.gate_sigma * params_.gate_sigma;
+      noise.gate_chi2_positive = params_.nlos_gate_sigma * params_.nlos_gate_sigma;
+      noise.downweight_sigma = params_.nlos_downweight_sigma;
+      const Eigen::Vector3d& anchor = site_->anchors[static_cast<size_t>(m.anchor)].position;
+      const uwb_twr::RangeUpdate u =
+          f.planar ? uwb_twr::range_update_state<2, kStateSize>(f.x, f.P, anchor, f.x(2),
+                                                                m.value, noise)
+                   : uwb_twr::range_update_state<3, kStateSize>(f.x, f.P, anchor, 0.0, m.value,
+                                                                noise);
+      if (u.accepted) {
+        s.last_absolute = m.t;
+        s.rejections = 0;
+      } else if (++s.rejections >= params_.reinit_after_rejections) {
+        // Gated again and again: the track has lost the tag. Widen it so that the ranges are
+        // taken again (a re-acquisition, not a jump past the gate of one range).
+        for (int i = 0; i < (f.planar ? 2 : 3); ++i) f.P(i, i) += 1.0;
+        s.rejections = 0;
+        if (live) ++stats_.restarts;
+      }
+      if (live) {
+        (u.accepted ? stats_.ranges_used : stats_.ranges_rejected)++;
+        if (u.accepted) {
+          t.tally.add(u.innovation_m);
+          t.sources |= kSrcRange;
+        }
+      }
+      break;
+    }
+    case Measurement::Kind::kHeight: {
+      if (f.planar) break;
+      const UpdateResult u = update_height(f, m.value, m.sigma,
+                                           params_.height_gate_sigma * params_.height_gate_sigma);
+      if (u.accepted) s.last_absolute = m.t;
+      if (live) {
+        (u.accepted ? stats_.heights_used : stats_.heights_rejected)++;
+        if (u.accepted) t.sources |= kSrcAltitude;
+      }
+      break;
+    }
+    case Measurement::Kind::kPosition: {
+      const UpdateResult u = update_position(f, m.vec, m.cov, m.horizontal_only,
+                                             params_.pose_gate_sigma * params_.pose_gate_sigma);
+      if (u.accepted) s.last_absolute = m.t;
+      if (live) {
+        (u.accepted ? stats_.poses_used : stats_.poses_rejected)++;
+        if (u.accepted) {
+          t.sources |= kSrcPose;
+          if (std::find(t.pose_kinds.begin(), t.pose_kinds.end(), m.pose_kind) ==
+              t.pose_kinds.end())
+            t.pose_kinds.push_back(m.pose_kind);
+        }
+      }
+      break;
+    }
+    case Measurement::Kind::kDisplacement:
+      if (live) {
+        ++stats_.displacements_used;
+        t.sources |= m.source;
+      }
+      break;
+  }
+  (void)tag_id;
+}
+
+void FuseEstimator::add(const std::string& tag_id, Track& t, Measurement m) {
+  if (!t.initialised) return;
+  const utime_t from = m.kind == Measurement::Kind::kDisplacement ? m.t0 : m.t;
+  const utime_t window = s_to_utime(params_.max_delay_s);
+  if (from < t.base.t) {  // before anything the track can roll back to
+    ++stats_.dropped_late;
+    return;
+  }
+  t.newest = std::max(t.newest, m.t);
+  // In time order into the history.
+  auto pos = std::upper_bound(t.history.begin(), t.history.end(), m.t,
+                              [](utime_t v, const Measurement& h) { return v < h.t; });
+  const size_t index = static_cast<size_t>(pos - t.history.begin());
+  t.history.insert(pos, m);
+  if (from >= t.state.t && index + 1 == t.history.size()) {
+    apply(tag_id, t, t.state, t.history.back(), true);
+    t.snapshots.push_back(t.state);
+  } else {
+    // Late, or a displacement reaching back over fused messages: from the last snapshot at or
+    // before `from`, fuse again in order.
+    ++stats_.rollbacks;
+    size_t k = 0;  // entries [0, k) keep their snapshots
+    while (k < t.snapshots.size() && k < t.history.size() && t.history[k].t <= from &&
+           k != index)
+      ++k;
+    Snapshot s = k == 0 ? t.base : t.snapshots[k - 1];
+    t.snapshots.resize(k);
+    for (size_t j = k; j < t.history.size(); ++j) {
+      apply(tag_id, t, s, t.history[j], j == index);
+      t.snapshots.push_back(s);
+    }
+    t.state = s;
+  }
+  // Forget what no late message can reach any more (keeping the base to roll back to).
+  while (t.history.size() > 1 &&
+         (t.history.front().t < t.newest - window || t.history.size() > kMaxHistory)) {
+    t.base = t.snapshots.front();
+    t.history.pop_front();
+    t.snapshots.pop_front();
+  }
+  maybe_publish(tag_id, t);
+}
+
+void FuseEstimator::maybe_publish(const std::string& tag_id, Track& t) {
+  if (!t.tally.due(t.state.t, params_.publish_period_s)) return;
+  const FuseFilter& f = t.state.filter;
+  pose_t p;
+  p.utime = t.state.t;
+  std::string names;
+  auto name = [&](uint32_t bit, const char* text) {
+    if (t.sources & bit) names += (names.empty() ? "" : "+") + std::string(text);
+  };
+  // The dead-reckoning source moves the state between all the other messages.
+  if (t.dr_bit != 0 && t.have_last_dr && t.state.t - t.last_dr_t <= s_to_utime(1.0))
+    t.sources |= t.dr_bit;
+  name(kSrcRange, "uwb_range");
+  name(kSrcInsModule, "ins_module");
+  name(kSrcPoseIns, "pose_ins");
+  name(kSrcStep, "step");
+  name(kSrcAltitude, "altitude");
+  for (const auto& k : t.pose_kinds) names += (names.empty() ? "" : "+") + k;
+  p.source = names.empty() ? source_ : source_ + ":" + names;
+  p.tag_id = tag_id;
+  for (int i = 0; i < 3; ++i) {
+    p.position[i] = f.x(i);
+    p.velocity[i] = f.x(kVel + i);
+    for (int j = 0; j < 3; ++j) p.position_cov[3 * i + j] = f.P(i, j);
+  }
+  const double speed = std::hypot(f.x(kVel), f.x(kVel + 1));
+  p.heading_rad = speed > 0.2 ? std::atan2(f.x(kVel + 1), f.x(kVel))
+                              : std::numeric_limits<double>::quiet_NaN();
+  t.tally.finish(p, f.planar, t.state.t);
+  t.sources = 0;
+  t.pose_kinds.clear();
+  ++stats_.poses_out;
+  sink_(p);
+}
+
+bool FuseEstimator::accept_displacement(Track& t, DisplacementSource src) {
+  if (params_.displacement == DisplacementSource::kAuto) {
+    if (t.displacement == DisplacementSource::kNone) t.displacement = src;
+  } else {
+    t.displacement = params_.displacement;
+  }
+  if (t.displacement != src) {
+    ++stats_.dropped_other_source;
+    return false;
+  }
+  return true;
+}
+
+void FuseEstimator::on_range(const uwb_range_t& m) {
+  Track* t = track_for(m.tag_id, m.utime);
+  if (!t) return;
+  if (!std::isfinite(m.range_m) || m.range_m < 0 || m.range_m > kMaxRangeM) {
+    ++stats_.dropped_invalid;
+    return;
+  }
+  const Anchor* a = site_->find_anchor(m.anchor_id);
+  if (!a || !a->enabled) {
+    ++stats_.dropped_unknown_anchor;
+    return;
+  }
+  Measurement r;
+  r.kind = Measurement::Kind::kRange;
+  r.t = m.utime;
+  r.anchor = static_cast<int>(a - site_->anchors.data());
+  r.value = m.range_m;
+  r.source = kSrcRange;
+  if (!t->initialised) {
+    t->init_ranges.push_back(r);
+    if (t->init_ranges.size() > 64) t->init_ranges.pop_front();
+    try_start_from_ranges(m.tag_id, *t);
+    return;
+  }
+  add(m.tag_id, *t, r);
+}
+
+void FuseEstimator::on_dead_reckoning(const pose_t& m, DisplacementSource src, uint32_t bit) {
+  Track* t = track_for(m.tag_id, m.utime);
+  if (!t) return;
+  if (!finite_position(m)) {
+    ++stats_.dropped_invalid;
+    return;
+  }
+  if (!accept_displacement(*t, src)) return;
+  const Eigen::Vector3d p(m.position[0], m.position[1], m.position[2]);
+  if (!t->have_last_dr || m.utime <= t->last_dr_t) {
+    if (t->have_last_dr) {
+      ++stats_.dropped_invalid;  // not after the previous one
+      return;
+    }
+    t->have_last_dr = true;
+    t->last_dr_t = m.utime;
+    t->last_dr_position = p;
+    // Its first position starts the track when nothing else has (001: the module starts where
+    // the walk does).
+    if (!t->initialised) start(m.tag_id, *t, m.utime, p, params_.start_sigma_m);
+    return;
+  }
+  Measurement d;
+  d.kind = Measurement::Kind::kDisplacement;
+  d.t0 = t->last_dr_t;
+  d.t = m.utime;
+  d.vec = p - t->last_dr_position;
+  d.source = bit;
+  t->dr_bit = bit;
+  t->last_dr_t = m.utime;
+  t->last_dr_position = p;
+  if (!t->initialised) start(m.tag_id, *t, m.utime, p, params_.start_sigma_m);
+  else add(m.tag_id, *t, d);
+}
+
+void FuseEstimator::on_ins_module(const pose_t& m) {
+  on_dead_reckoning(m, DisplacementSource::kInsModule, kSrcInsModule);
+}
+
+void FuseEstimator::on_pose_ins(const pose_t& m) {
+  on_dead_reckoning(m, DisplacementSource::kPoseIns, kSrcPoseIns);
+}
+
+void FuseEstimator::on_step(const step_t& m) {
+  Track* t = track_for(m.tag_id, m.utime);
+  if (!t) return;
+  if (!std::isfinite(m.length_m) || m.length_m < 0 || m.length_m > 5 ||
+      !std::isfinite(m.heading_rad)) {
+    ++stats_.dropped_invalid;
+    return;
+  }
+  if (!accept_displacement(*t, DisplacementSource::kStep)) return;
+  // A step covers the time since the previous one (at most 2 s: a first step, or after a stop).
+  const utime_t longest = s_to_utime(2.0);
+  const utime_t t0 = t->have_last_dr && m.utime > t->last_dr_t && m.utime - t->last_dr_t < longest
+                         ? t->last_dr_t
+                         : m.utime - (std::isfinite(m.cadence_hz) && m.cadence_hz > 0.3
+                                          ? s_to_utime(1.0 / m.cadence_hz)
+                                          : s_to_utime(0.5));
+  if (t->have_last_dr && m.utime <= t->last_dr_t) {
+    ++stats_.dropped_invalid;
+    return;
+  }
+  t->have_last_dr = true;
+  t->last_dr_t = m.utime;
+  if (!t->initialised) return;  // a step says nothing of where the tag is
+  Measurement d;
+  d.kind = Measurement::Kind::kDisplacement;
+  d.t0 = t0;
+  d.t = m.utime;
+  d.vec = Eigen::Vector3d(m.length_m * std::cos(m.heading_rad),
+                          m.length_m * std::sin(m.heading_rad), 0.0);
+  d.source = kSrcStep;
+  t->dr_bit = kSrcStep;
+  add(m.tag_id, *t, d);
+}
+
+void FuseEstimator::on_altitude(const altitude_t& m) {
+  Track* t = track_for(m.tag_id, m.utime);
+  if (!t) return;
+  if (!std::isfinite(m.height_m) || std::abs(m.height_m) > kMaxCoordinateM ||
+      !(m.height_std_m > 0) || !std::isfinite(m.height_std_m)) {
+    ++stats_.dropped_invalid;
+    return;
+  }
+  Measurement h;
+  h.kind = Measurement::Kind::kHeight;
+  h.t = m.utime;
+  h.value = m.height_m;
+  h.sigma = std::max(m.height_std_m, 0.01);
+  h.source = kSrcAltitude;
+  add(m.tag_id, *t, h);
+}
+
+void FuseEstimator::on_pose(const pose_t& m, const std::string& kind) {
+  Track* t = track_for(m.tag_id, m.utime);
+  if (!t) return;
+  const bool horizontal_only = (m.status & pose_t::STATUS_2D) != 0;
+  const auto cov = pose_covariance(m, horizontal_only);
+  if (!finite_position(m) || !cov) {
+    ++stats_.dropped_invalid;
+    return;
+  }
+  Measurement p;
+  p.kind = Measurement::Kind::kPosition;
+  p.t = m.utime;
+  p.vec = Eigen::Vector3d(m.position[0], m.position[1], m.position[2]);
+  p.cov = *cov;
+  p.horizontal_only = horizontal_only;
+  p.source = kSrcPose;
+  p.pose_kind = kind;
+  if (!t->initialised) {
+    start(m.tag_id, *t, m.utime, p.vec, std::sqrt(std::max(cov->trace() / 3.0, 1e-6)));
+    return;
+  }
+  add(m.tag_id, *t, p);
+}
+
+}  // namespace ips::fusion

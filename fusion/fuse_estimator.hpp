@@ -1,0 +1,172 @@
+#pragma once
+// Hybrid per-tag fusion (ips-fuse): one best estimate per tag from every sensor, sources
+// ../shared/reference/001_hybrid_uwb_ins.md (UWB + foot INS) and 003_baro.md (barometric height).
+// One EKF per tag (fuse_filter.hpp: position, velocity, the dead-reckoning heading bias) takes:
+//  - UWB two-way ranges, tightly coupled (models/uwb_range.hpp of ips-uwb-twr, with its NLOS
+//    gating and down-weighting);
+//  - relative displacements as the motion model: a foot-INS module's on-board positions
+//    (INS_MODULE), ips-ins's (POSE_INS) or ips-pdr's steps (STEP), differenced and rotated by the
+//    estimated heading bias; without them, constant velocity;
+//  - barometric heights (ALTITUDE, models/height.hpp);
+//  - other estimators' poses, loosely coupled (models/position.hpp; POSE_TDOA, POSE_AOA).
+// Every update is gated. Messages are fused in time order as they arrive; a late one (up to
+// max_delay_s behind the tag's newest) rolls the track back to the snapshot before it and the
+// later ones are fused again, so a displacement that covers ranges already fused still moves the
+// state between them. With fewer anchors, or none, the track coasts on the displacements (or
+// constant velocity) and its covariance grows; gated ranges are accepted again as it does.
+// Pure: takes messages, emits pose_t through a callback, never reads a clock.
+#include <cstdint>
+#include <deque>
+#include <functional>
+#include <ips/altitude_t.hpp>
+#include <ips/pose_t.hpp>
+#include <ips/step_t.hpp>
+#include <ips/uwb_range_t.hpp>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "core/pose_tally.hpp"
+#include "core/site.hpp"
+#include "fusion/fuse_filter.hpp"
+
+namespace ips::fusion {
+
+enum class DisplacementSource { kAuto, kInsModule, kPoseIns, kStep, kNone };
+
+struct FuseParams {
+  bool force_3d = false;          // estimate height even when the site gives the tag's
+  double range_sigma_m = 0.10;
+  double gate_sigma = 4.0;
+  double nlos_gate_sigma = 2.5;
+  double nlos_downweight_sigma = 1.5;
+  double accel_psd = 0.5;         // constant-velocity process noise, (m/s^2)^2/Hz
+  DisplacementSource displacement = DisplacementSource::kAuto;  // auto: the first one heard
+  double displacement_sigma_per_m = 0.05;  // noise of a displacement, per metre moved
+  double displacement_sigma_min_m = 0.01;  // ... and at least this, per displacement
+  double heading_bias_sigma_deg = 30.0;    // initial: the source's frame vs the site's
+  double heading_bias_walk_deg_per_sqrt_s = 2.0;
+  double start_sigma_m = 0.3;     // a start from the site's start pose or a dead-reckoning position
+  double height_gate_sigma = 5.0;
+  double pose_gate_sigma = 5.0;
+  double epoch_window_s = 0.6;    // ranges this close form a multilateration start
+  double max_delay_s = 1.0;       // late messages up to this far behind are fused in order
+  int reinit_after_rejections = 12;
+  double publish_period_s = 0.1;
+  int max_tags = 1000;
+};
+
+// Reads `estimators.fuse` of the site; throws ConfigError naming file, line and field.
+FuseParams parse_fuse_params(const YamlField& section);
+
+struct FuseStats {
+  int64_t messages_in = 0;
+  int64_t ranges_used = 0;
+  int64_t ranges_rejected = 0;
+  int64_t displacements_used = 0;
+  int64_t heights_used = 0;
+  int64_t heights_rejected = 0;
+  int64_t poses_used = 0;
+  int64_t poses_rejected = 0;
+  int64_t dropped_invalid = 0;
+  int64_t dropped_unknown_anchor = 0;
+  int64_t dropped_late = 0;          // more than max_delay_s behind the tag's newest
+  int64_t dropped_no_site = 0;
+  int64_t dropped_too_many_tags = 0;
+  int64_t dropped_other_source = 0;  // displacements of a second source for the same tag
+  int64_t rollbacks = 0;             // late messages fused in order
+  int64_t initialisations = 0;
+  int64_t restarts = 0;
+  int64_t poses_out = 0;
+};
+
+class FuseEstimator {
+ public:
+  using PoseSink = std::function<void(const pose_t&)>;
+  explicit FuseEstimator(PoseSink sink, std::string source_name = "fuse");
+
+  void set_site(const Site& site);
+  bool has_site() const { return site_.has_value(); }
+  void on_range(const uwb_range_t& m);
+  void on_ins_module(const pose_t& m);  // INS_MODULE
+  void on_pose_ins(const pose_t& m);    // POSE_INS
+  void on_step(const step_t& m);        // STEP
+  void on_altitude(const altitude_t& m);
+  // Another estimator's pose (POSE_TDOA, POSE_AOA, ...), `kind` naming it in the sources.
+  void on_pose(const pose_t& m, const std::string& kind);
+
+  const FuseStats& stats() const { return stats_; }
+  const FuseParams& params() const { return params_; }
+  // The tag's current state, for tests.
+  std::optional<FuseFilter> filter(const std::string& tag_id) const;
+
+ private:
+  enum Source : uint32_t {
+    kSrcRange = 1,
+    kSrcInsModule = 2,
+    kSrcPoseIns = 4,
+    kSrcStep = 8,
+    kSrcAltitude = 16,
+    kSrcPose = 32,
+  };
+  struct Measurement {
+    enum class Kind { kRange, kHeight, kPosition, kDisplacement } kind = Kind::kRange;
+    utime_t t = 0;
+    utime_t t0 = 0;  // displacement: the start of its interval
+    int anchor = -1;
+    double value = 0;  // range, or height
+    double sigma = 0;  // height sigma
+    Eigen::Vector3d vec = Eigen::Vector3d::Zero();  // position, or displacement
+    Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+    bool horizontal_only = false;
+    uint32_t source = 0;
+    std::string pose_kind;
+  };
+  struct Snapshot {
+    utime_t t = 0;
+    FuseFilter filter;
+    utime_t last_absolute = 0;
+    int rejections = 0;
+  };
+  struct Track {
+    bool initialised = false;
+    Snapshot state;
+    Snapshot base;                    // the state before the history's first message
+    std::deque<Measurement> history;  // fused, in time order, the last max_delay_s
+    std::deque<Snapshot> snapshots;   // the state after each of them
+    DisplacementSource displacement = DisplacementSource::kNone;
+    bool have_last_dr = false;        // the last dead-reckoning position or step time
+    utime_t last_dr_t = 0;
+    uint32_t dr_bit = 0;              // the dead-reckoning source's bit, once one moved the track
+    Eigen::Vector3d last_dr_position = Eigen::Vector3d::Zero();
+    std::deque<Measurement> init_ranges;  // waiting for a multilateration start
+    utime_t newest = 0;
+    PoseTally tally;
+    uint32_t sources = 0;  // contributed since the last pose
+    std::vector<std::string> pose_kinds;
+  };
+
+  Track* track_for(const std::string& tag_id, utime_t t);
+  bool planar_for(const std::string& tag_id) const;
+  double tag_height(const std::string& tag_id) const;
+  void add(const std::string& tag_id, Track& t, Measurement m);
+  void start(const std::string& tag_id, Track& t, utime_t time, const Eigen::Vector3d& p,
+             double sigma_m);
+  void try_start_from_ranges(const std::string& tag_id, Track& t);
+  // Moves the snapshot's filter to time `to`, through the displacements of the history.
+  void predict(const Track& t, Snapshot& s, utime_t to) const;
+  void apply(const std::string& tag_id, Track& t, Snapshot& s, const Measurement& m, bool live);
+  void maybe_publish(const std::string& tag_id, Track& t);
+  void on_dead_reckoning(const pose_t& m, DisplacementSource src, uint32_t bit);
+  bool accept_displacement(Track& t, DisplacementSource src);
+
+  PoseSink sink_;
+  std::string source_;
+  std::optional<Site> site_;
+  FuseParams params_;
+  std::map<std::string, Track> tracks_;
+  FuseStats stats_;
+};
+
+}  // namespace ips::fusion

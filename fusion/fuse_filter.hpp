@@ -1,0 +1,72 @@
+#pragma once
+// ips-fuse's per-tag state and motion models: position p (3), velocity v (3), and the heading
+// bias psi of the tag's dead-reckoning source (the rotation, about z, from the frame its
+// displacements are reported in to the site's: a foot-INS module's initial heading error, 001
+// chapter 4, and its drift). Two ways to move the state to a later time:
+//  - by a reported displacement d over dt (foot INS, PDR steps): p += R(psi) d,
+//    v = R(psi) d / dt, with noise growing with the distance (001's INS as the motion model);
+//  - without one, constant velocity with white-noise acceleration (UWB alone).
+// psi follows a random walk either way. In 2D (the tag's height from the site) z and vz stay put.
+#include <Eigen/Core>
+#include <cmath>
+
+#include "core/ekf.hpp"
+
+namespace ips::fusion {
+
+inline constexpr int kStateSize = 7;
+inline constexpr int kVel = 3;
+inline constexpr int kPsi = 6;
+using State = Vec<kStateSize>;
+using Covariance = Mat<kStateSize>;
+
+struct FuseFilter {
+  State x = State::Zero();
+  Covariance P = Covariance::Identity();
+  bool planar = false;  // z and vz fixed
+
+  void predict_cv(double dt, double accel_psd, double psi_walk_var_per_s) {
+    if (dt <= 0) return;
+    const int d = planar ? 2 : 3;
+    Covariance F = Covariance::Identity();
+    for (int i = 0; i < d; ++i) F(i, kVel + i) = dt;
+    for (int i = 0; i < d; ++i) x(i) += dt * x(kVel + i);
+    P = F * P * F.transpose();
+    const double dt2 = dt * dt;
+    for (int i = 0; i < d; ++i) {
+      P(i, i) += accel_psd * dt2 * dt / 3.0;
+      P(i, kVel + i) += accel_psd * dt2 / 2.0;
+      P(kVel + i, i) += accel_psd * dt2 / 2.0;
+      P(kVel + i, kVel + i) += accel_psd * dt;
+    }
+    P(kPsi, kPsi) += psi_walk_var_per_s * dt;
+    symmetrize<kStateSize>(P);
+  }
+
+  // d: the displacement in the source's frame over dt seconds (dt > 0); sigma_m: its noise per
+  // axis.
+  void predict_displacement(const Eigen::Vector3d& d, double dt, double sigma_m,
+                            double psi_walk_var_per_s) {
+    const double c = std::cos(x(kPsi)), s = std::sin(x(kPsi));
+    const Eigen::Vector3d moved(c * d.x() - s * d.y(), s * d.x() + c * d.y(), planar ? 0.0 : d.z());
+    // d(moved)/d(psi)
+    const Eigen::Vector3d dmoved(-s * d.x() - c * d.y(), c * d.x() - s * d.y(), 0.0);
+    Covariance F = Covariance::Identity();
+    F.block<3, 1>(0, kPsi) = dmoved;
+    F.block<3, 3>(kVel, kVel).setZero();
+    F.block<3, 1>(kVel, kPsi) = dmoved / dt;
+    x.head<3>() += moved;
+    x.segment<3>(kVel) = moved / dt;
+    P = F * P * F.transpose();
+    const double var = sigma_m * sigma_m;
+    const int n = planar ? 2 : 3;
+    for (int i = 0; i < n; ++i) {
+      P(i, i) += var;
+      P(kVel + i, kVel + i) += var / (dt * dt);
+    }
+    P(kPsi, kPsi) += psi_walk_var_per_s * dt;
+    symmetrize<kStateSize>(P);
+  }
+};
+
+}  // namespace ips::fusion

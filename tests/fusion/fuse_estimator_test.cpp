@@ -1,0 +1,272 @@
+// FuseEstimator on synthetic inputs: a tag walking a known path, exact or noisy ranges to known
+// anchors, a dead-reckoning source with a known heading error. Late messages, coasting without
+// anchors and re-acquisition, heights, loose poses, the start, bad input and parameters.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <random>
+#include <vector>
+
+#include "fusion/fuse_estimator.hpp"
+
+namespace ips::fusion {
+namespace {
+
+constexpr utime_t kT0 = 1767225600000000;
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+Site site_with(const std::string& tag = "{id: T1, height_m: 0.1}", const std::string& fuse = "") {
+  return parse_site_text(
+      "name: t\nanchors:\n"
+      "  - {id: A1, position: [-6, 2, 2.0]}\n  - {id: A2, position: [12, 2, 2.5]}\n"
+      "  - {id: A3, position: [-7, 20, 2.2]}\n  - {id: A4, position: [8, 25, 2.4]}\n"
+      "tags: [" + tag + "]\n" + (fuse.empty() ? std::string() : "estimators:\n  fuse: " + fuse + "\n"),
+      "test site");
+}
+
+// The walk: 0.85 m/s north for 16 m, then east (001's L), after 3 s standing.
+Eigen::Vector3d truth_at(double t_s, double z = 0.1) {
+  const double s = std::max(0.0, t_s - 3.0) * 0.85;
+  if (s <= 16.0) return {0.0, s, z};
+  return {std::min(s - 16.0, 7.5), 16.0, z};
+}
+
+struct Input {
+  utime_t t;
+  int kind;  // 0 range, 1 INS position
+  std::string anchor;
+  double range_m;
+  Eigen::Vector3d position;
+};
+
+// Ranges every 0.5 s from each anchor (phases spread), INS positions at 2 Hz rotated about the
+// start by `heading_error` (001 eq. 4.1's initial error), from t = 0 to duration_s.
+std::vector<Input> inputs(const Site& site, double duration_s, double heading_error,
+                          double range_noise, uint64_t seed, int anchors = 4) {
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> n(0.0, 1.0);
+  std::vector<Input> out;
+  for (int k = 0; k * 0.5 < duration_s; ++k) {
+    const double t = 0.5 * k;
+    const Eigen::Vector3d p = truth_at(t);
+    const double c = std::cos(heading_error), s = std::sin(heading_error);
+    out.push_back({kT0 + s_to_utime(t), 1, "", 0, Eigen::Vector3d(c * p.x() - s * p.y(), s * p.x() + c * p.y(), p.z())});
+    for (int a = 0; a < anchors; ++a) {
+      const double ta = t + 0.1 * (a + 1);
+      const Anchor& an = site.anchors[static_cast<size_t>(a)];
+      out.push_back({kT0 + s_to_utime(ta), 0, an.id,
+                     (truth_at(ta) - an.position).norm() + range_noise * n(rng), {}});
+    }
+  }
+  std::stable_sort(out.begin(), out.end(), [](const Input& a, const Input& b) { return a.t < b.t; });
+  return out;
+}
+
+void feed(FuseEstimator& est, const Input& in) {
+  if (in.kind == 0) {
+    uwb_range_t r{};
+    r.utime = in.t;
+    r.tag_id = "T1";
+    r.anchor_id = in.anchor;
+    r.range_m = in.range_m;
+    est.on_range(r);
+  } else {
+    pose_t p{};
+    p.utime = in.t;
+    p.tag_id = "T1";
+    for (int i = 0; i < 3; ++i) p.position[i] = in.position(i);
+    for (double& c : p.position_cov) c = kNaN;
+    est.on_ins_module(p);
+  }
+}
+
+TEST(FuseEstimator, ExactRangesAndARotatedInsGiveThePathAndTheHeadingBias) {
+  const Site site = site_with("{id: T1, height_m: 0.1}", "{range_sigma_m: 0.05}");
+  std::vector<pose_t> out;
+  FuseEstimator est([&](const pose_t& p) { out.push_back(p); });
+  est.set_site(site);
+  for (const auto& in : inputs(site, 30.0, -0.27, 0.0, 1)) feed(est, in);
+  const auto f = est.filter("T1");
+  ASSERT_TRUE(f);
+  const Eigen::Vector3d truth = truth_at(utime_to_s(out.back().utime - kT0));
+  EXPECT_LT((f->x.head<2>() - truth.head<2>()).norm(), 0.05);
+  EXPECT_NEAR(f->x(2), 0.1, 1e-9);  // 2D: the site's height
+  // The INS frame is rotated by -0.27 rad: the bias that undoes it is +0.27.
+  EXPECT_NEAR(f->x(kPsi), 0.27, 0.01);
+  EXPECT_EQ(out.back().source, "fuse:uwb_range+ins_module");
+  EXPECT_TRUE(out.back().status & pose_t::STATUS_2D);
+  EXPECT_EQ(est.stats().ranges_rejected, 0);
+}
+
+TEST(FuseEstimator, LateMessagesAreFusedInOrder) {
+  // The same inputs delivered in time order, and with every other range 0.4 s late: the same
+  // final state (the late ones roll the track back and everything after is fused again).
+  const Site site = site_with("{id: T1, height_m: 0.1}", "{range_sigma_m: 0.3, max_delay_s: 1.0}");
+  const auto in = inputs(site, 20.0, -0.2, 0.3, 7);
+  FuseEstimator ordered([](const pose_t&) {});
+  ordered.set_site(site);
+  for (const auto& i : in) feed(ordered, i);
+  FuseEstimator late([](const pose_t&) {});
+  late.set_site(site);
+  std::vector<Input> held;
+  for (size_t k = 0; k < in.size(); ++k) {
+    while (!held.empty() && held.front().t + s_to_utime(0.4) <= in[k].t) {
+      feed(late, held.front());
+      held.erase(held.begin());
+    }
+    if (in[k].kind == 0 && k % 2 == 0) held.push_back(in[k]);
+    else feed(late, in[k]);
+  }
+  for (const auto& h : held) feed(late, h);
+  ASSERT_TRUE(ordered.filter("T1") && late.filter("T1"));
+  EXPECT_LT((ordered.filter("T1")->x - late.filter("T1")->x).norm(), 1e-6);
+  EXPECT_GT(late.stats().rollbacks, ordered.stats().rollbacks);
+  EXPECT_EQ(late.stats().dropped_late, 0);
+  // Beyond max_delay_s: dropped and counted.
+  uwb_range_t old{};
+  old.utime = in.back().t - s_to_utime(3.0);
+  old.tag_id = "T1";
+  old.anchor_id = "A1";
+  old.range_m = 5.0;
+  late.on_range(old);
+  EXPECT_EQ(late.stats().dropped_late, 1);
+}
+
+TEST(FuseEstimator, WithoutAnchorsItCoastsAndReacquiresWithoutAJump) {
+  const Site site = site_with("{id: T1, height_m: 0.1}", "{range_sigma_m: 0.2}");
+  std::vector<pose_t> out;
+  FuseEstimator est([&](const pose_t& p) { out.push_back(p); });
+  est.set_site(site);
+  const auto in = inputs(site, 40.0, -0.27, 0.2, 3);
+  std::vector<double> sigma_during_gap;
+  for (const auto& i : in) {
+    const double t = utime_to_s(i.t - kT0);
+    if (i.kind == 0 && t > 15.0 && t < 25.0) continue;  // the anchors go dark for 10 s
+    feed(est, i);
+    if (t > 15.5 && t < 25.0 && est.filter("T1"))
+      sigma_during_gap.push_back(std::sqrt(est.filter("T1")->P(0, 0) + est.filter("T1")->P(1, 1)));
+  }
+  ASSERT_GT(sigma_during_gap.size(), 10u);
+  for (size_t k = 1; k < sigma_during_gap.size(); ++k)
+    EXPECT_GE(sigma_during_gap[k], sigma_during_gap[k - 1] - 1e-9);  // grows while coasting
+  bool coasted = false;
+  double largest_step = 0;
+  for (size_t k = 1; k < out.size(); ++k) {
+    const double t = utime_to_s(out[k].utime - kT0);
+    if (t > 16.0 && t < 25.0 && (out[k].status & pose_t::STATUS_COASTING)) coasted = true;
+    if (t > 24.5 && t < 27.0) {
+      const double step = std::hypot(out[k].position[0] - out[k - 1].position[0],
+                                     out[k].position[1] - out[k - 1].position[1]);
+      largest_step = std::max(largest_step, step);
+    }
+  }
+  EXPECT_TRUE(coasted);
+  EXPECT_LT(largest_step, 0.5);  // 0.1 s at 0.85 m/s plus the correction: no jump
+  const Eigen::Vector3d truth = truth_at(utime_to_s(out.back().utime - kT0));
+  EXPECT_LT((est.filter("T1")->x.head<2>() - truth.head<2>()).norm(), 0.3);
+}
+
+TEST(FuseEstimator, StartsFromRangesWithoutDeadReckoningAndFromTheSitesStartPose) {
+  {
+    const Site site = site_with("{id: T1, height_m: 0.1}");
+    FuseEstimator est([](const pose_t&) {});
+    est.set_site(site);
+    for (const auto& i : inputs(site, 2.5, 0.0, 0.0, 1))  // still standing
+      if (i.kind == 0) feed(est, i);
+    ASSERT_TRUE(est.filter("T1"));
+    EXPECT_LT(est.filter("T1")->x.head<2>().norm(), 0.1);  // standing at the origin
+    EXPECT_EQ(est.stats().initialisations, 1);
+  }
+  {
+    FuseEstimator est([](const pose_t&) {});
+    est.set_site(site_with("{id: T1, height_m: 0.1, start_position: [3, 4]}"));
+    uwb_range_t r{};
+    r.utime = kT0;
+    r.tag_id = "T1";
+    r.anchor_id = "A1";
+    r.range_m = 9.0;
+    est.on_range(r);
+    ASSERT_TRUE(est.filter("T1"));
+    EXPECT_NEAR(est.filter("T1")->x(0), 3.0, 0.5);
+  }
+}
+
+TEST(FuseEstimator, HeightsFromAltitudeAndLoosePoses) {
+  FuseEstimator est([](const pose_t&) {});
+  est.set_site(site_with("{id: T1}"));  // 3D
+  pose_t p{};
+  p.utime = kT0;
+  p.tag_id = "T1";
+  p.position[0] = 1.0;
+  p.position[1] = 2.0;
+  p.position[2] = 2.4;  // e.g. a TDoA fix stuck at the anchor plane
+  for (double& c : p.position_cov) c = 0.0;
+  p.position_cov[0] = p.position_cov[4] = 0.04;
+  p.position_cov[8] = 4.0;
+  est.on_pose(p, "tdoa");
+  for (int k = 1; k <= 50; ++k) {
+    altitude_t a{};
+    a.utime = kT0 + k * 100000;
+    a.tag_id = "T1";
+    a.height_m = 1.07;
+    a.height_std_m = 0.03;
+    est.on_altitude(a);
+  }
+  ASSERT_TRUE(est.filter("T1"));
+  EXPECT_NEAR(est.filter("T1")->x(2), 1.07, 0.01);
+  EXPECT_EQ(est.stats().heights_used, 50);
+}
+
+TEST(FuseEstimator, BadInputIsCounted) {
+  FuseEstimator est([](const pose_t&) {});
+  uwb_range_t r{};
+  r.utime = kT0;
+  r.tag_id = "T1";
+  r.anchor_id = "A1";
+  r.range_m = 3.0;
+  est.on_range(r);
+  EXPECT_EQ(est.stats().dropped_no_site, 1);
+  est.set_site(site_with("{id: T1, height_m: 0.1}", "{max_tags: 1}"));
+  r.range_m = kNaN;
+  est.on_range(r);
+  r.range_m = -1;
+  est.on_range(r);
+  EXPECT_EQ(est.stats().dropped_invalid, 2);
+  r.range_m = 3;
+  r.anchor_id = "Z9";
+  est.on_range(r);
+  EXPECT_EQ(est.stats().dropped_unknown_anchor, 1);
+  r.tag_id = "T2";
+  r.anchor_id = "A1";
+  est.on_range(r);
+  EXPECT_EQ(est.stats().dropped_too_many_tags, 1);
+  // A second dead-reckoning source for the same tag.
+  pose_t ins{};
+  ins.utime = kT0;
+  ins.tag_id = "T1";
+  est.on_ins_module(ins);
+  ins.utime += 1000;
+  est.on_pose_ins(ins);
+  EXPECT_EQ(est.stats().dropped_other_source, 1);
+}
+
+TEST(FuseParams, BadValuesNameTheField) {
+  auto error_of = [](const std::string& yaml) {
+    try {
+      parse_fuse_params(site_with("{id: T1}", yaml).estimator_params("fuse"));
+    } catch (const ConfigError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_NE(error_of("{displacement: teleport}").find("expected auto, ins_module, pose_ins, step or none"),
+            std::string::npos);
+  EXPECT_NE(error_of("{range_sigma_m: 0}").find("estimators.fuse.range_sigma_m: must be in"),
+            std::string::npos);
+  EXPECT_NE(error_of("{rangesigma: 1}").find("rangesigma"), std::string::npos);
+  EXPECT_EQ(error_of("{displacement: step, max_delay_s: 2}"), "no error");
+}
+
+}  // namespace
+}  // namespace ips::fusion
