@@ -204,8 +204,11 @@ void FuseEstimator::predict(const Track& t, Snapshot& s, utime_t to) const {
     if (a > cursor) s.filter.predict_cv(utime_to_s(a - cursor), params_.accel_psd, psi_walk);
     const double fraction = static_cast<double>(b - a) / static_cast<double>(d.t - d.t0);
     const Eigen::Vector3d part = fraction * d.vec;
-    const double sigma = std::max(params_.displacement_sigma_min_m,
-                                  params_.displacement_sigma_per_m * part.norm());
+    // The whole displacement's variance, shared out in proportion to time, so that splitting it
+    // between other messages adds up to the same.
+    const double sigma = std::sqrt(fraction) *
+                         std::max(params_.displacement_sigma_min_m,
+                                  params_.displacement_sigma_per_m * d.vec.norm());
     s.filter.predict_displacement(part, utime_to_s(b - a), sigma, psi_walk);
     cursor = b;
   }
