@@ -1,0 +1,57 @@
+#!/usr/bin/env bash
+# ips-fuse end to end over real LCM multicast in a private network namespace: ips-sim
+# (corridor-L-2: UWB ranges from 2 anchors and the foot-INS module, seed 1, 40 s at 10x), ips-fuse
+# (site from the SITE message) and the real lcm-logger as separate processes. On the recorded log:
+#  - ips-eval scores POSE_FUSED: horizontal RMSE <= 0.378 m (the issue's bound for 2 anchors; the
+#    in-process test measures 0.22 m for this seed) over at least 150 poses (one per range or INS
+#    position when 0.1 s have passed: 161 in-process);
+#  - POSE_FUSED's source names the ranges and the INS module; HEALTH from ips-fuse is there;
+#  - --help exits 0; a bad --site and an unknown flag are one line each and status 2.
+# Exit 77 (skipped) when no network namespace can be made here.
+set -euo pipefail
+BIN=$(cd "$1" && pwd)
+HERE=$(cd "$(dirname "$0")" && pwd)
+ROOT=$(cd "$HERE/../.." && pwd)
+source "$ROOT/tests/integration/live_test_lib.sh"
+source "$ROOT/tests/integration/cli_test_lib.sh"
+
+"$BIN/ips-bus-check" --timeout 3 || fail "multicast does not loop back inside the namespace"
+lcm-logger -q -f "$WORK/fuse.lcm" & logger=$!; pids+=($logger)
+"$BIN/ips-fuse" --log-level warn & fuse=$!; pids+=($fuse)
+"$BIN/ips-bus-check" --wait-for ips-fuse --timeout 20 || fail "ips-fuse did not come up"
+sleep 0.2
+"$BIN/ips-sim" --scenario corridor-L-2 --seed 1 --speed 10 --log-level warn
+sleep 0.5
+stop $fuse ips-fuse
+stop $logger lcm-logger
+
+json=$("$BIN/ips-eval" --json "$WORK/fuse.lcm")
+row=$(echo "$json" | tr '{' '\n' | grep '"channel": "POSE_FUSED"' || true)
+[ -n "$row" ] || fail "no POSE_FUSED row in ips-eval output: $json"
+count=$(echo "$row" | sed -E 's/.*"count": ([0-9]+).*/\1/')
+rmse=$(echo "$row" | sed -E 's/.*"rmse_h": ([0-9.]+|null).*/\1/')
+[ "$count" -ge 150 ] || fail "POSE_FUSED: only $count poses scored (expected about 161)"
+awk -v r="$rmse" 'BEGIN { exit !(r <= 0.378) }' || fail "POSE_FUSED: rmse_h $rmse (bound 0.378)"
+echo "live ips-fuse: POSE_FUSED count $count rmse_h $rmse (bound 0.378): ok"
+python3 - "$WORK/fuse.lcm" <<'PY' || fail "POSE_FUSED sources or HEALTH"
+import struct, sys
+from lcm_log import events
+from lcm_messages import health
+ev = events(sys.argv[1])[0]
+def source(data):  # pose_t: fingerprint, utime, then the source string
+    n = struct.unpack_from('>i', data, 16)[0]
+    return data[20:20 + n - 1].decode()
+sources = {source(d) for ch, _, d in ev if ch == 'POSE_FUSED'}
+assert 'fuse:uwb_range+ins_module' in sources, sources
+mine = [health(d) for ch, _, d in ev if ch == 'HEALTH' and health(d)['source'] == 'ips-fuse']
+assert mine and mine[-1]["msgs_in"] > 200, mine[-1:]
+print('sources:', sorted(sources), '; HEALTH msgs_in', mine[-1]['msgs_in'])
+PY
+
+"$BIN/ips-fuse" --help | grep -q "POSE_FUSED" || fail "--help does not describe the program"
+printf 'name: bad\nanchors: []\ntags: [{id: T1}]\nestimators:\n  fuse: {displacement: teleport}\n' \
+  >"$WORK/bad.yaml"
+expect_error "^ips-fuse: error: .*bad.yaml:5: estimators.fuse.displacement: expected auto, ins_module" \
+  "$BIN/ips-fuse" --site "$WORK/bad.yaml"
+expect_error "^ips-fuse: error: " "$BIN/ips-fuse" --no-such-flag
+echo "PASS"
