@@ -19,6 +19,10 @@ import sys
 import time
 import tty
 
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', '..', 'integration'))
+import fake_device_lib  # noqa: E402
+from fake_device_lib import opened_count  # noqa: E402
+
 
 class Device:
     def __init__(self, link):
@@ -39,19 +43,7 @@ class Device:
 
 
 def wait_for(predicate, timeout_s, what):
-    end = time.monotonic() + timeout_s
-    while not predicate():
-        if time.monotonic() > end:
-            sys.exit(f'fake barometer: timed out waiting for {what}')
-        time.sleep(0.02)
-
-
-def opened_count(log, link):
-    try:
-        with open(log, encoding='utf-8', errors='replace') as f:
-            return f.read().count(f' opened {link} ')
-    except FileNotFoundError:
-        return 0
+    fake_device_lib.wait_for(predicate, timeout_s, what, 'fake barometer')
 
 
 def main(link, log, work):

@@ -25,6 +25,10 @@ import threading
 import time
 import tty
 
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', '..', 'integration'))
+import fake_device_lib  # noqa: E402
+from fake_device_lib import opened_count  # noqa: E402
+
 COMMAND_OK = b'\r\nOK\r\n'
 
 
@@ -107,19 +111,7 @@ def service(anchors, stop):
 
 
 def wait_for(predicate, timeout_s, what):
-    end = time.monotonic() + timeout_s
-    while not predicate():
-        if time.monotonic() > end:
-            sys.exit(f'fake anchors: timed out waiting for {what}')
-        time.sleep(0.02)
-
-
-def opened_count(log, link):
-    try:
-        with open(log, encoding='utf-8', errors='replace') as f:
-            return f.read().count(f' opened {link} ')
-    except FileNotFoundError:
-        return 0
+    fake_device_lib.wait_for(predicate, timeout_s, what, 'fake anchors')
 
 
 def main(link_a, link_b, link_c, log, work):
