@@ -44,7 +44,7 @@ FuseParams parse_fuse_params(const YamlField& s) {
                 "nlos_downweight_sigma", "accel_psd", "displacement", "displacement_sigma_per_m",
                 "displacement_sigma_min_m", "heading_bias_sigma_deg",
                 "heading_bias_walk_deg_per_sqrt_s", "start_sigma_m", "height_gate_sigma",
-                "pose_gate_sigma", "epoch_window_s", "max_delay_s", "reinit_after_rejections",
+                "pose_gate_sigma", "pose_cov_scale", "epoch_window_s", "max_delay_s", "reinit_after_rejections",
                 "publish_period_s", "max_tags"});
   p.force_3d = s.get_bool("force_3d", p.force_3d);
   p.range_sigma_m = s.get_double_in("range_sigma_m", p.range_sigma_m, 1e-4, 100);
@@ -71,6 +71,7 @@ FuseParams parse_fuse_params(const YamlField& s) {
   p.start_sigma_m = s.get_double_in("start_sigma_m", p.start_sigma_m, 1e-4, 1e4);
   p.height_gate_sigma = s.get_double_in("height_gate_sigma", p.height_gate_sigma, 0.5, 1e6);
   p.pose_gate_sigma = s.get_double_in("pose_gate_sigma", p.pose_gate_sigma, 0.5, 1e6);
+  p.pose_cov_scale = s.get_double_in("pose_cov_scale", p.pose_cov_scale, 0.01, 1e6);
   p.epoch_window_s = s.get_double_in("epoch_window_s", p.epoch_window_s, 0.001, 60);
   p.max_delay_s = s.get_double_in("max_delay_s", p.max_delay_s, 0, 60);
   p.reinit_after_rejections =
@@ -513,7 +514,7 @@ void FuseEstimator::on_pose(const pose_t& m, const std::string& kind) {
   p.kind = Measurement::Kind::kPosition;
   p.t = m.utime;
   p.vec = Eigen::Vector3d(m.position[0], m.position[1], m.position[2]);
-  p.cov = *cov;
+  p.cov = params_.pose_cov_scale * *cov;
   p.horizontal_only = horizontal_only;
   p.source = kSrcPose;
   p.pose_kind = kind;

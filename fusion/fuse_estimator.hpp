@@ -50,6 +50,9 @@ struct FuseParams {
   double start_sigma_m = 0.3;     // a start from the site's start pose or a dead-reckoning position
   double height_gate_sigma = 5.0;
   double pose_gate_sigma = 5.0;
+  // Other estimators' poses are filtered, so their errors are correlated from one to the next:
+  // their covariance is multiplied by this before they are fused.
+  double pose_cov_scale = 3.0;
   double epoch_window_s = 0.6;    // ranges this close form a multilateration start
   double max_delay_s = 1.0;       // late messages up to this far behind are fused in order
   int reinit_after_rejections = 12;
