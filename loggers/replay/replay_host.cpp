@@ -1,10 +1,13 @@
 #include "loggers/replay/replay_host.hpp"
 
 #include <algorithm>
+#include <ips/altitude_t.hpp>
 #include <ips/baro_t.hpp>
 #include <ips/ble_aoa_t.hpp>
 #include <ips/imu_t.hpp>
+#include <ips/pose_t.hpp>
 #include <ips/site_t.hpp>
+#include <ips/step_t.hpp>
 #include <ips/uwb_range_t.hpp>
 #include <ips/uwb_rx_t.hpp>
 
@@ -20,9 +23,11 @@ constexpr const char* kAoa = "aoa";
 constexpr const char* kPdr = "pdr";
 constexpr const char* kIns = "ins";
 constexpr const char* kAltitude = "altitude";
-}
+constexpr const char* kFuse = "fuse";
+}  // namespace
 
-std::vector<std::string> ReplayHost::available() { return {kUwbTwr, kUwbTdoa, kAoa, kPdr, kIns, kAltitude};
+std::vector<std::string> ReplayHost::available() {
+  return {kUwbTwr, kUwbTdoa, kAoa, kPdr, kIns, kAltitude, kFuse};
 }
 
 ReplayHost::ReplayHost(const ReplayOptions& opts, const CommonOptions& channels, Sink sink)
@@ -74,6 +79,13 @@ ReplayHost::ReplayHost(const ReplayOptions& opts, const CommonOptions& channels,
         [this, out](const altitude_t& a) { emit(out, a); });
     produced_channels_.insert(out);
   }
+  if (wanted(kFuse)) {
+    const std::string out = channels_.channel(channel::kPoseFused);
+    // Written, never fed back: the fusion does not read its own output.
+    fuse_ =
+        std::make_unique<fusion::FuseEstimator>([this, out](const pose_t& p) { write(out, p); });
+    produced_channels_.insert(out);
+  }
   if (!opts_.site_path.empty()) apply_site(load_site_file(opts_.site_path));
 }
 
@@ -85,15 +97,75 @@ std::vector<std::string> ReplayHost::hosted() const {
   if (pdr_) names.push_back(kPdr);
   if (ins_) names.push_back(kIns);
   if (altitude_) names.push_back(kAltitude);
+  if (fuse_) names.push_back(kFuse);
   return names;
 }
 
 template <class Msg>
-void ReplayHost::emit(const std::string& channel, const Msg& msg) {
+void ReplayHost::write(const std::string& channel, const Msg& msg) {
   buffer_.resize(static_cast<size_t>(msg.getEncodedSize()));
   msg.encode(buffer_.data(), 0, static_cast<int>(buffer_.size()));
   ++stats_.estimates_out;
   sink_(channel, now_timestamp_, buffer_.data(), buffer_.size());
+}
+
+template <class Msg>
+void ReplayHost::emit(const std::string& channel, const Msg& msg) {
+  write(channel, msg);
+  if (fuse_) feed_fuse(channel, msg);
+}
+
+void ReplayHost::feed_fuse(const std::string& channel, const pose_t& m) {
+  if (channel == channels_.channel(channel::kPoseIns)) {
+    fuse_->on_pose_ins(m);
+  } else if (channel == channels_.channel(channel::kPoseTdoa)) {
+    fuse_->on_pose(m, "tdoa");
+  } else if (channel == channels_.channel(channel::kPoseAoa)) {
+    fuse_->on_pose(m, "aoa");
+  }
+}
+
+void ReplayHost::feed_fuse(const std::string& channel, const step_t& m) {
+  if (channel == channels_.channel(channel::kStep)) fuse_->on_step(m);
+}
+
+void ReplayHost::feed_fuse(const std::string& channel, const altitude_t& m) {
+  if (channel == channels_.channel(channel::kAltitude)) fuse_->on_altitude(m);
+}
+
+void ReplayHost::feed_fuse_from_log(const std::string& channel, const uint8_t* data, size_t size) {
+  // The channels are the live ips-fuse's; an input a hosted estimator regenerates reached the
+  // fusion through emit() already, and its log events must not reach it a second time.
+  if (produced_channels_.count(channel)) return;
+  const bool ins_module = channel == channels_.channel(channel::kInsModule);
+  if (ins_module || channel == channels_.channel(channel::kPoseIns) ||
+      channel == channels_.channel(channel::kPoseTdoa) ||
+      channel == channels_.channel(channel::kPoseAoa)) {
+    pose_t m;
+    if (!decode_message(m, data, size)) {
+      ++stats_.undecodable;
+      return;
+    }
+    if (ins_module) {
+      fuse_->on_ins_module(m);
+    } else {
+      feed_fuse(channel, m);
+    }
+  } else if (channel == channels_.channel(channel::kStep)) {
+    step_t m;
+    if (!decode_message(m, data, size)) {
+      ++stats_.undecodable;
+      return;
+    }
+    fuse_->on_step(m);
+  } else if (channel == channels_.channel(channel::kAltitude)) {
+    altitude_t m;
+    if (!decode_message(m, data, size)) {
+      ++stats_.undecodable;
+      return;
+    }
+    fuse_->on_altitude(m);
+  }
 }
 
 void ReplayHost::apply_site(const Site& site) {
@@ -103,6 +175,7 @@ void ReplayHost::apply_site(const Site& site) {
   if (pdr_) pdr_->set_site(site);
   if (ins_) ins_->set_site(site);
   if (altitude_) altitude_->set_site(site);
+  if (fuse_) fuse_->set_site(site);
 }
 
 void ReplayHost::finish() {
@@ -135,13 +208,14 @@ void ReplayHost::process(const std::string& channel, int64_t timestamp, const ui
     } catch (const ConfigError&) {
       ++stats_.bad_sites;
     }
-  } else if (twr_ && channel == channels_.channel(channel::kUwbRange)) {
+  } else if ((twr_ || fuse_) && channel == channels_.channel(channel::kUwbRange)) {
     uwb_range_t m;
     if (!decode_message(m, data, size)) {
       ++stats_.undecodable;
       return;
     }
-    twr_->on_range(m);
+    if (twr_) twr_->on_range(m);
+    if (fuse_) fuse_->on_range(m);
   } else if (tdoa_ && channel == channels_.channel(channel::kUwbRx)) {
     uwb_rx_t m;
     if (!decode_message(m, data, size)) {
@@ -171,6 +245,8 @@ void ReplayHost::process(const std::string& channel, int64_t timestamp, const ui
       return;
     }
     altitude_->on_baro(m);
+  } else if (fuse_) {
+    feed_fuse_from_log(channel, data, size);
   }
 }
 

@@ -18,6 +18,7 @@
 #include "estimators/pdr/pdr_estimator.hpp"
 #include "estimators/uwb_tdoa/tdoa_estimator.hpp"
 #include "estimators/uwb_twr/twr_estimator.hpp"
+#include "fusion/fuse_estimator.hpp"
 
 namespace ips::replay {
 
@@ -47,8 +48,8 @@ class ReplayHost {
   void process(const std::string& channel, int64_t timestamp, const uint8_t* data, size_t size);
   // At the end of the log: estimators that hold inputs back (the TDoA estimator waits for a
   // blink's last report, the AoA estimator for an epoch's window to pass, the altitude estimator
-  // for the reference's next reading) emit what they hold,
-  // stamped with the last event's time.
+  // for the reference's next reading) emit what they hold, stamped with the last event's time;
+  // the fusion gets it as it would live.
   void finish();
 
   const ReplayStats& stats() const { return stats_; }
@@ -57,8 +58,19 @@ class ReplayHost {
   static std::vector<std::string> available();
 
  private:
+  // Encodes and writes an estimate to the sink.
+  template <class Msg>
+  void write(const std::string& channel, const Msg& msg);
+  // An estimate of a hosted estimator: written, then handed to the hosted fusion when it is one
+  // of its inputs, since the log's events on that channel are not (they are regenerated).
   template <class Msg>
   void emit(const std::string& channel, const Msg& msg);
+  void feed_fuse(const std::string& channel, const pose_t& m);
+  void feed_fuse(const std::string& channel, const step_t& m);
+  void feed_fuse(const std::string& channel, const altitude_t& m);
+  void feed_fuse(const std::string&, const clock_t&) {}
+  // A log event on one of the fusion's inputs that no hosted estimator produces.
+  void feed_fuse_from_log(const std::string& channel, const uint8_t* data, size_t size);
   void apply_site(const Site& site);
 
   CommonOptions channels_;
@@ -75,6 +87,7 @@ class ReplayHost {
   std::unique_ptr<pdr::PdrEstimator> pdr_;
   std::unique_ptr<ins::InsEstimator> ins_;
   std::unique_ptr<altitude::AltitudeEstimator> altitude_;
+  std::unique_ptr<fusion::FuseEstimator> fuse_;
 };
 
 }  // namespace ips::replay

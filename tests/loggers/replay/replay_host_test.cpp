@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cstdint>
 #include <ips/altitude_t.hpp>
 #include <ips/clock_t.hpp>
 #include <ips/pose_t.hpp>
@@ -23,6 +24,8 @@ struct Out {
   bool operator==(const Out&) const = default;
 };
 
+// Replays a simulated scenario, with extra_inputs (in time order) before the simulated events of
+// the same or a later time.
 std::vector<Out> replay(const ReplayOptions& ro, double duration_s = 20,
                         const std::vector<Out>& extra_inputs = {},
                         const std::string& scenario = "lab") {
@@ -32,9 +35,17 @@ std::vector<Out> replay(const ReplayOptions& ro, double duration_s = 20,
   std::vector<Out> out;
   ReplayHost host(ro, CommonOptions{}, [&](const std::string& ch, int64_t ts, const uint8_t* d,
                                           size_t n) { out.push_back({ch, ts, {d, d + n}}); });
-  for (const auto& e : extra_inputs) host.process(e.channel, e.timestamp, e.data.data(), e.data.size());
+  auto extra = extra_inputs.begin();
+  auto process_extra_until = [&](int64_t t) {
+    for (; extra != extra_inputs.end() && extra->timestamp <= t; ++extra)
+      host.process(extra->channel, extra->timestamp, extra->data.data(), extra->data.size());
+  };
   sim::SimEvent e;
-  while (sim.next(e)) host.process(e.kind, e.utime, e.data.data(), e.data.size());
+  while (sim.next(e)) {
+    process_extra_until(e.utime);
+    host.process(e.kind, e.utime, e.data.data(), e.data.size());
+  }
+  process_extra_until(INT64_MAX);
   host.finish();
   return out;
 }
@@ -186,6 +197,89 @@ TEST(ReplayHost, HostsTheAltitudeEstimator) {
   EXPECT_EQ(altitudes, 200);  // 10 Hz over 20 s, the last held back then released by finish()
 }
 
+// The fusion alone on corridor-L (UWB_RANGE and INS_MODULE): POSE_FUSED right after the range
+// or INS_MODULE pose that brought the track past its publish time, with the same log time.
+TEST(ReplayHost, HostsTheFuseEstimator) {
+  ReplayOptions ro;
+  ro.only = {"fuse"};
+  const auto out = replay(ro, 20, {}, "corridor-L");
+  int poses = 0;
+  for (size_t i = 0; i < out.size(); ++i) {
+    if (out[i].channel != "POSE_FUSED") continue;
+    ++poses;
+    ASSERT_GT(i, 0u);
+    EXPECT_TRUE(out[i - 1].channel == "UWB_RANGE" || out[i - 1].channel == "INS_MODULE")
+        << out[i - 1].channel;
+    EXPECT_EQ(out[i - 1].timestamp, out[i].timestamp);
+    pose_t p;
+    ASSERT_GT(p.decode(out[i].data.data(), 0, static_cast<int>(out[i].data.size())), 0);
+    EXPECT_EQ(p.source.rfind("fuse", 0), 0u) << p.source;
+    EXPECT_EQ(p.tag_id, "T1");
+  }
+  // Published at most every publish_period_s (0.1 s), and only when a message moves the track:
+  // the ranges come every 0.125 s (4 anchors at 2 Hz each), so one pose per range, 160 in 20 s.
+  EXPECT_GT(poses, 150);
+  EXPECT_LE(poses, 201);
+}
+
+// With every estimator hosted, the fusion reads the regenerated POSE_TDOA, ALTITUDE, ... (the
+// log's own events on those channels are dropped), each right after it was written, and only
+// once, even when the log's events are kept.
+TEST(ReplayHost, FuseGetsRegeneratedInputs) {
+  for (bool keep : {false, true}) {
+    ReplayOptions ro;
+    ro.keep_regenerated = keep;
+    const auto out = replay(ro);
+    int fused = 0, from_regenerated = 0;
+    for (size_t i = 0; i < out.size(); ++i) {
+      if (out[i].channel != "POSE_FUSED") continue;
+      ++fused;
+      pose_t p;
+      ASSERT_GT(p.decode(out[i].data.data(), 0, static_cast<int>(out[i].data.size())), 0);
+      EXPECT_EQ(p.source.rfind("fuse", 0), 0u) << p.source;
+      if (p.source.find("tdoa") != std::string::npos ||
+          p.source.find("altitude") != std::string::npos)
+        ++from_regenerated;
+    }
+    EXPECT_GT(fused, 0) << keep;
+    EXPECT_GT(from_regenerated, 0) << keep;
+  }
+}
+
+// Kept log events on a channel a hosted estimator regenerates do not reach the fusion: an old
+// POSE_TDOA stream in the log (here the lab's POSE_UWB, 0.3 m off) leaves POSE_FUSED as it is
+// without it.
+TEST(ReplayHost, FuseIgnoresKeptEventsOfHostedProducers) {
+  auto fused_only = [](const std::vector<Out>& out) {
+    std::vector<Out> f;
+    for (const auto& o : out)
+      if (o.channel == "POSE_FUSED") f.push_back(o);
+    return f;
+  };
+  ReplayOptions twr;
+  twr.only = {"uwb_twr"};
+  std::vector<Out> old_tdoa;
+  for (const auto& o : replay(twr, 10)) {
+    if (o.channel != "POSE_UWB") continue;
+    pose_t p;
+    ASSERT_GT(p.decode(o.data.data(), 0, static_cast<int>(o.data.size())), 0);
+    p.source = "uwb_tdoa";
+    p.position[0] += 0.3;
+    std::vector<uint8_t> bytes(static_cast<size_t>(p.getEncodedSize()));
+    p.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
+    old_tdoa.push_back({"POSE_TDOA", o.timestamp, bytes});
+  }
+  ASSERT_GT(old_tdoa.size(), 50u);
+  ReplayOptions keep;
+  keep.keep_regenerated = true;
+  const auto fused = fused_only(replay(keep, 10));
+  ASSERT_FALSE(fused.empty());
+  EXPECT_EQ(fused_only(replay(keep, 10, old_tdoa)), fused);
+  // Without uwb_tdoa hosted, the fusion reads the log's POSE_TDOA, and the old stream tells.
+  keep.only = {"uwb_twr", "fuse"};
+  EXPECT_NE(fused_only(replay(keep, 10, old_tdoa)), fused_only(replay(keep, 10)));
+}
+
 TEST(ReplayHost, SameEventsSameBytes) { EXPECT_EQ(replay({}), replay({})); }
 
 TEST(ReplayHost, RegeneratedChannelsAreDroppedUnlessKept) {
@@ -214,7 +308,9 @@ TEST(ReplayHost, OnlyNamesKnownEstimators) {
     ReplayHost(ro, CommonOptions{}, [](auto&&...) {});
     FAIL();
   } catch (const ConfigError& e) {
-    EXPECT_STREQ(e.what(), "--only: unknown estimator 'teleport' (uwb_twr, uwb_tdoa, aoa, pdr, ins, altitude)");
+    EXPECT_STREQ(e.what(),
+                 "--only: unknown estimator 'teleport' (uwb_twr, uwb_tdoa, aoa, pdr, ins, "
+                 "altitude, fuse)");
   }
 }
 
