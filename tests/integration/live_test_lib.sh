@@ -20,7 +20,10 @@ cleanup() {
   rm -rf "$WORK"
 }
 trap cleanup EXIT
-export LCM_DEFAULT_URL="udpm://239.255.76.67:7667?ttl=0"
+# A 4 MiB receive buffer (capped by net.core.rmem_max): the sanitizer builds of the processes
+# under test can stall for a fraction of a second on a loaded machine, and at 1000 and more
+# datagrams a second the default 208 KiB overflows and drops some.
+export LCM_DEFAULT_URL="udpm://239.255.76.67:7667?ttl=0&recv_buf_size=4194304"
 export PYTHONPATH="$IPS_TEST_LIB_DIR${PYTHONPATH:+:$PYTHONPATH}"
 fail() { echo "FAIL: $*" >&2; exit 1; }
 forget() {
