@@ -217,8 +217,7 @@ void FuseEstimator::predict(const Track& t, Snapshot& s, utime_t to) const {
   s.t = to;
 }
 
-void FuseEstimator::apply(const std::string& tag_id, Track& t, Snapshot& s,
-                          const Measurement& m, bool live) {
+void FuseEstimator::apply(Track& t, Snapshot& s, const Measurement& m, bool live) {
   predict(t, s, m.t);
   FuseFilter& f = s.filter;
   switch (m.kind) {
@@ -286,7 +285,6 @@ void FuseEstimator::apply(const std::string& tag_id, Track& t, Snapshot& s,
       }
       break;
   }
-  (void)tag_id;
 }
 
 void FuseEstimator::add(const std::string& tag_id, Track& t, Measurement m) {
@@ -304,7 +302,7 @@ void FuseEstimator::add(const std::string& tag_id, Track& t, Measurement m) {
   const size_t index = static_cast<size_t>(pos - t.history.begin());
   t.history.insert(pos, m);
   if (from >= t.state.t && index + 1 == t.history.size()) {
-    apply(tag_id, t, t.state, t.history.back(), true);
+    apply(t, t.state, t.history.back(), true);
     t.snapshots.push_back(t.state);
   } else {
     // Late, or a displacement reaching back over fused messages: from the last snapshot at or
@@ -317,7 +315,7 @@ void FuseEstimator::add(const std::string& tag_id, Track& t, Measurement m) {
     Snapshot s = k == 0 ? t.base : t.snapshots[k - 1];
     t.snapshots.resize(k);
     for (size_t j = k; j < t.history.size(); ++j) {
-      apply(tag_id, t, s, t.history[j], j == index);
+      apply(t, s, t.history[j], j == index);
       t.snapshots.push_back(s);
     }
     t.state = s;

@@ -159,7 +159,7 @@ class FuseEstimator {
   void try_start_from_ranges(const std::string& tag_id, Track& t);
   // Moves the snapshot's filter to time `to`, through the displacements of the history.
   void predict(const Track& t, Snapshot& s, utime_t to) const;
-  void apply(const std::string& tag_id, Track& t, Snapshot& s, const Measurement& m, bool live);
+  void apply(Track& t, Snapshot& s, const Measurement& m, bool live);
   void maybe_publish(const std::string& tag_id, Track& t);
   void on_dead_reckoning(const pose_t& m, DisplacementSource src, uint32_t bit);
   bool accept_displacement(Track& t, DisplacementSource src);

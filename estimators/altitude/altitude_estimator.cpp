@@ -194,15 +194,15 @@ void AltitudeEstimator::drain(bool flush) {
           t.pending.size() <= kMaxPending)
         break;
       t.pending.pop_front();
-      use(tag_id, t, r);
+      use(tag_id, t, r, station);
     }
   }
 }
 
 void AltitudeEstimator::finish() { drain(true); }
 
-void AltitudeEstimator::use(const std::string& tag_id, Track& t, const TagReading& r) {
-  const auto* station = pick_reference(r.utime);
+void AltitudeEstimator::use(const std::string& tag_id, Track& t, const TagReading& r,
+                            const std::pair<const std::string, Station>* station) {
   if (!station) {
     if (stations_.empty()) {
       ++stats_.dropped_no_reference;

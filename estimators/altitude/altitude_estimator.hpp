@@ -119,7 +119,9 @@ class AltitudeEstimator {
   void drain(bool flush);
   // The reference station to use at time t (the preferred one, else the freshest), or nullptr.
   const std::pair<const std::string, Station>* pick_reference(utime_t t) const;
-  void use(const std::string& tag_id, Track& t, const TagReading& r);
+  // Fuses one tag reading against `station` (pick_reference's choice at its time; nullptr: none).
+  void use(const std::string& tag_id, Track& t, const TagReading& r,
+           const std::pair<const std::string, Station>* station);
   void publish(const std::string& tag_id, Track& t, utime_t utime);
 
   AltitudeSink sink_;
