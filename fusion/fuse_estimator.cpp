@@ -9,6 +9,7 @@
 #include "estimators/uwb_twr/models/uwb_range.hpp"
 #include "fusion/models/height.hpp"
 #include "fusion/models/position.hpp"
+#include "fusion/models/tdoa.hpp"
 
 namespace ips::fusion {
 
@@ -40,8 +41,8 @@ FuseParams parse_fuse_params(const YamlField& s) {
   FuseParams p;
   if (!s.defined()) return p;
   if (!s.is_map()) s.fail("expected a map of fuse parameters");
-  s.check_keys({"force_3d", "range_sigma_m", "gate_sigma", "nlos_gate_sigma",
-                "nlos_downweight_sigma", "accel_psd", "displacement", "displacement_sigma_per_m",
+  s.check_keys({"force_3d", "range_sigma_m", "gate_sigma", "tdoa_gate_sigma", "nlos_gate_sigma",
+                "nlos_downweight_sigma", "accel_psd", "displacement", "gyro_turns", "displacement_sigma_per_m",
                 "displacement_sigma_min_m", "heading_bias_sigma_deg",
                 "heading_bias_walk_deg_per_sqrt_s", "start_sigma_m", "height_gate_sigma",
                 "pose_gate_sigma", "pose_cov_scale", "epoch_window_s", "max_delay_s", "reinit_after_rejections",
@@ -49,6 +50,7 @@ FuseParams parse_fuse_params(const YamlField& s) {
   p.force_3d = s.get_bool("force_3d", p.force_3d);
   p.range_sigma_m = s.get_double_in("range_sigma_m", p.range_sigma_m, 1e-4, 100);
   p.gate_sigma = s.get_double_in("gate_sigma", p.gate_sigma, 0.5, 1e6);
+  p.tdoa_gate_sigma = s.get_double_in("tdoa_gate_sigma", p.tdoa_gate_sigma, 0.5, 1e6);
   p.nlos_gate_sigma = s.get_double_in("nlos_gate_sigma", p.nlos_gate_sigma, 0.5, 1e6);
   p.nlos_downweight_sigma =
       s.get_double_in("nlos_downweight_sigma", p.nlos_downweight_sigma, 0.1, 1e6);
@@ -60,6 +62,7 @@ FuseParams parse_fuse_params(const YamlField& s) {
   else if (d == "step") p.displacement = DisplacementSource::kStep;
   else if (d == "none") p.displacement = DisplacementSource::kNone;
   else s["displacement"].fail("expected auto, ins_module, pose_ins, step or none");
+  p.gyro_turns = s.get_bool("gyro_turns", p.gyro_turns);
   p.displacement_sigma_per_m =
       s.get_double_in("displacement_sigma_per_m", p.displacement_sigma_per_m, 0, 10);
   p.displacement_sigma_min_m =
@@ -83,7 +86,11 @@ FuseParams parse_fuse_params(const YamlField& s) {
 }
 
 FuseEstimator::FuseEstimator(PoseSink sink, std::string source_name)
-    : sink_(std::move(sink)), source_(std::move(source_name)) {}
+    : sink_(std::move(sink)),
+      source_(std::move(source_name)),
+      tdoa_([](const pose_t&) {}, [](const clock_t&) {}, source_) {
+  tdoa_.set_epoch_sink([this](const uwb_tdoa::TdoaEpoch& e) { on_tdoa_epoch(e); }, false);
+}
 
 void FuseEstimator::set_site(const Site& site) {
   // The ranging noise is the UWB system's: estimators.uwb_twr's unless estimators.fuse says.
@@ -92,6 +99,8 @@ void FuseEstimator::set_site(const Site& site) {
   const YamlField twr = site.estimator_params("uwb_twr");
   if (!fuse["range_sigma_m"].defined() && twr["range_sigma_m"].defined())
     params.range_sigma_m = twr.get_double_in("range_sigma_m", params.range_sigma_m, 1e-4, 100);
+  // TDoA blinks: the clock synchronisation of ips-uwb-tdoa with its parameters.
+  tdoa_.set_site(site);
   params_ = params;
   site_ = site;
   tracks_.clear();
@@ -160,7 +169,7 @@ void FuseEstimator::start(const std::string& tag_id, Track& t, utime_t time,
   }
   if (t.initialised) ++stats_.restarts;
   t.initialised = true;
-  t.state = Snapshot{time, f, time, 0};
+  t.state = Snapshot{time, time, f, time, 0};
   t.base = t.state;
   t.history.clear();
   t.snapshots.clear();
@@ -198,11 +207,25 @@ void FuseEstimator::predict(const Track& t, Snapshot& s, utime_t to) const {
   const double psi_walk = std::pow(deg_to_rad(params_.heading_bias_walk_deg_per_sqrt_s), 2);
   utime_t cursor = s.t;
   if (to <= cursor) return;
+  // Constant velocity from a to b, turned by the gyro's turn meanwhile when there is one.
+  // A displacement's velocity is its average, the direction it had in its middle: the turn is
+  // counted from there.
+  auto cv = [&](utime_t a, utime_t b) {
+    const utime_t from = std::min(s.velocity_t, a);
+    std::optional<double> mid, end;
+    if (params_.gyro_turns) {
+      mid = t.gyro.turn(from, a + (b - a) / 2);
+      end = t.gyro.turn(from, b);
+    }
+    s.filter.predict_cv(utime_to_s(b - a), params_.accel_psd, psi_walk,
+                        mid && end ? *mid : 0.0, mid && end ? *end : 0.0);
+    s.velocity_t = b;
+  };
   for (const Measurement& d : t.history) {
     if (d.kind != Measurement::Kind::kDisplacement || d.t <= cursor || d.t0 >= to) continue;
     const utime_t a = std::max(d.t0, cursor), b = std::min(d.t, to);
     if (b <= a) continue;
-    if (a > cursor) s.filter.predict_cv(utime_to_s(a - cursor), params_.accel_psd, psi_walk);
+    if (a > cursor) cv(cursor, a);
     const double fraction = static_cast<double>(b - a) / static_cast<double>(d.t - d.t0);
     const Eigen::Vector3d part = fraction * d.vec;
     // The whole displacement's variance, shared out in proportion to time, so that splitting it
@@ -211,9 +234,10 @@ void FuseEstimator::predict(const Track& t, Snapshot& s, utime_t to) const {
                          std::max(params_.displacement_sigma_min_m,
                                   params_.displacement_sigma_per_m * d.vec.norm());
     s.filter.predict_displacement(part, utime_to_s(b - a), sigma, psi_walk);
+    s.velocity_t = d.t0 + (d.t - d.t0) / 2;
     cursor = b;
   }
-  if (cursor < to) s.filter.predict_cv(utime_to_s(to - cursor), params_.accel_psd, psi_walk);
+  if (cursor < to) cv(cursor, to);
   s.t = to;
 }
 
@@ -233,21 +257,25 @@ void FuseEstimator::apply(Track& t, Snapshot& s, const Measurement& m, bool live
                                                                 m.value, noise)
                    : uwb_twr::range_update_state<3, kStateSize>(f.x, f.P, anchor, 0.0, m.value,
                                                                 noise);
-      if (u.accepted) {
-        s.last_absolute = m.t;
-        s.rejections = 0;
-      } else if (++s.rejections >= params_.reinit_after_rejections) {
-        // Gated again and again: the track has lost the tag. Widen it so that the ranges are
-        // taken again (a re-acquisition, not a jump past the gate of one range).
-        for (int i = 0; i < (f.planar ? 2 : 3); ++i) f.P(i, i) += 1.0;
-        s.rejections = 0;
-        if (live) ++stats_.restarts;
-      }
+      count_absolute(s, m.t, u.accepted, live);
       if (live) {
         (u.accepted ? stats_.ranges_used : stats_.ranges_rejected)++;
         if (u.accepted) {
           t.tally.add(u.innovation_m);
           t.sources |= kSrcRange;
+        }
+      }
+      break;
+    }
+    case Measurement::Kind::kTdoa: {
+      const TdoaUpdate u = update_tdoa(f, m.tdoa, params_.tdoa_gate_sigma * params_.tdoa_gate_sigma);
+      count_absolute(s, m.t, u.accepted, live);
+      if (live) {
+        (u.accepted ? stats_.tdoa_epochs_used : stats_.tdoa_epochs_rejected)++;
+        if (u.accepted) {
+          stats_.tdoa_differences_used += u.used;
+          t.tally.add_many(u.used, u.innovation_sq);
+          t.sources |= kSrcTdoa;
         }
       }
       break;
@@ -284,6 +312,20 @@ void FuseEstimator::apply(Track& t, Snapshot& s, const Measurement& m, bool live
         t.sources |= m.source;
       }
       break;
+  }
+}
+
+void FuseEstimator::count_absolute(Snapshot& s, utime_t t, bool accepted, bool live) {
+  if (accepted) {
+    s.last_absolute = t;
+    s.rejections = 0;
+  } else if (++s.rejections >= params_.reinit_after_rejections) {
+    // Gated again and again: the track has lost the tag. Widen it so that the ranges are taken
+    // again (a re-acquisition, not a jump past the gate of one range).
+    FuseFilter& f = s.filter;
+    for (int i = 0; i < (f.planar ? 2 : 3); ++i) f.P(i, i) += 1.0;
+    s.rejections = 0;
+    if (live) ++stats_.restarts;
   }
 }
 
@@ -343,6 +385,7 @@ void FuseEstimator::maybe_publish(const std::string& tag_id, Track& t) {
   if (t.dr_bit != 0 && t.have_last_dr && t.state.t - t.last_dr_t <= s_to_utime(1.0))
     t.sources |= t.dr_bit;
   name(kSrcRange, "uwb_range");
+  name(kSrcTdoa, "uwb_tdoa");
   name(kSrcInsModule, "ins_module");
   name(kSrcPoseIns, "pose_ins");
   name(kSrcStep, "step");
@@ -403,6 +446,41 @@ void FuseEstimator::on_range(const uwb_range_t& m) {
     return;
   }
   add(m.tag_id, *t, r);
+}
+
+void FuseEstimator::on_rx(const uwb_rx_t& m) {
+  if (!site_) {
+    ++stats_.messages_in;
+    ++stats_.dropped_no_site;
+    return;
+  }
+  tdoa_.on_rx(m);  // its blinks come back through on_tdoa_epoch
+}
+
+void FuseEstimator::on_tdoa_epoch(const uwb_tdoa::TdoaEpoch& e) {
+  Track* t = track_for(*e.tag_id, e.utime);
+  // A blink says where the tag is only relative to the anchors' hyperboloids: the track starts
+  // from something else (ranges, a start pose, POSE_TDOA).
+  if (!t || !t->initialised) return;
+  // The nearest anchors to the estimate, nearest first (the most likely direct paths).
+  std::array<int, uwb_tdoa::kMaxEpochArrivals> order;
+  for (int k = 0; k < e.count; ++k) order[k] = k;
+  const Eigen::Vector3d p = t->state.filter.x.head<3>();
+  std::sort(order.begin(), order.begin() + e.count, [&](int a, int b) {
+    return (e.anchor[a] - p).squaredNorm() < (e.anchor[b] - p).squaredNorm();
+  });
+  Measurement m;
+  m.kind = Measurement::Kind::kTdoa;
+  m.t = e.utime;
+  m.source = kSrcTdoa;
+  m.tdoa.count = std::min(e.count, kMaxTdoaArrivals);
+  for (int k = 0; k < m.tdoa.count; ++k) {
+    m.tdoa.anchor[k] = e.anchor[order[k]];
+    m.tdoa.range_m[k] = e.range_m[order[k]];
+    m.tdoa.var_m2[k] = e.var_m2[order[k]];
+  }
+  t->tight_tdoa = true;
+  add(*e.tag_id, *t, m);
 }
 
 void FuseEstimator::on_dead_reckoning(const pose_t& m, DisplacementSource src, uint32_t bit) {
@@ -499,6 +577,19 @@ void FuseEstimator::on_altitude(const altitude_t& m) {
   add(m.tag_id, *t, h);
 }
 
+void FuseEstimator::on_imu(const imu_t& m) {
+  if (!params_.gyro_turns) return;
+  Track* t = track_for(m.device_id, m.utime);
+  if (!t) return;
+  const Eigen::Vector3d gyro(m.gyro[0], m.gyro[1], m.gyro[2]);
+  const Eigen::Vector3d accel(m.accel[0], m.accel[1], m.accel[2]);
+  if (!t->gyro.add(m.utime, gyro, accel)) {
+    ++stats_.dropped_invalid;
+    return;
+  }
+  ++stats_.imu_used;
+}
+
 void FuseEstimator::on_pose(const pose_t& m, const std::string& kind) {
   Track* t = track_for(m.tag_id, m.utime);
   if (!t) return;
@@ -506,6 +597,10 @@ void FuseEstimator::on_pose(const pose_t& m, const std::string& kind) {
   const auto cov = pose_covariance(m, horizontal_only);
   if (!finite_position(m) || !cov) {
     ++stats_.dropped_invalid;
+    return;
+  }
+  if (kind == "tdoa" && t->tight_tdoa) {
+    ++stats_.poses_superseded;
     return;
   }
   Measurement p;

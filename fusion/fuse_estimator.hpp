@@ -7,6 +7,9 @@
 //  - relative displacements as the motion model: a foot-INS module's on-board positions
 //    (INS_MODULE), ips-ins's (POSE_INS) or ips-pdr's steps (STEP), differenced and rotated by the
 //    estimated heading bias; without them, constant velocity;
+//  - UWB TDoA blinks (UWB_RX), tightly coupled (models/tdoa.hpp): ips-uwb-tdoa's clock
+//    synchronisation and blink grouping run inside, and each blink's differences update the
+//    filter; a tag with blinks no longer takes POSE_TDOA (the same information, filtered);
 //  - barometric heights (ALTITUDE, models/height.hpp);
 //  - other estimators' poses, loosely coupled (models/position.hpp; POSE_TDOA, POSE_AOA).
 // Every update is gated. Messages are fused in time order as they arrive; a late one (up to
@@ -19,9 +22,11 @@
 #include <deque>
 #include <functional>
 #include <ips/altitude_t.hpp>
+#include <ips/imu_t.hpp>
 #include <ips/pose_t.hpp>
 #include <ips/step_t.hpp>
 #include <ips/uwb_range_t.hpp>
+#include <ips/uwb_rx_t.hpp>
 #include <map>
 #include <optional>
 #include <string>
@@ -29,7 +34,10 @@
 
 #include "core/pose_tally.hpp"
 #include "core/site.hpp"
+#include "estimators/uwb_tdoa/tdoa_estimator.hpp"
 #include "fusion/fuse_filter.hpp"
+#include "fusion/gyro_heading.hpp"
+#include "fusion/models/tdoa.hpp"
 
 namespace ips::fusion {
 
@@ -39,10 +47,12 @@ struct FuseParams {
   bool force_3d = false;          // estimate height even when the site gives the tag's
   double range_sigma_m = 0.10;
   double gate_sigma = 4.0;
+  double tdoa_gate_sigma = 4.0;
   double nlos_gate_sigma = 2.5;
   double nlos_downweight_sigma = 1.5;
   double accel_psd = 0.5;         // constant-velocity process noise, (m/s^2)^2/Hz
   DisplacementSource displacement = DisplacementSource::kAuto;  // auto: the first one heard
+  bool gyro_turns = true;  // IMU gyros turn the velocity between displacements
   double displacement_sigma_per_m = 0.05;  // noise of a displacement, per metre moved
   double displacement_sigma_min_m = 0.01;  // ... and at least this, per displacement
   double heading_bias_sigma_deg = 30.0;    // initial: the source's frame vs the site's
@@ -67,7 +77,12 @@ struct FuseStats {
   int64_t messages_in = 0;
   int64_t ranges_used = 0;
   int64_t ranges_rejected = 0;
+  int64_t tdoa_epochs_used = 0;
+  int64_t tdoa_epochs_rejected = 0;
+  int64_t tdoa_differences_used = 0;
+  int64_t poses_superseded = 0;      // POSE_TDOA of a tag whose blinks are fused tightly
   int64_t displacements_used = 0;
+  int64_t imu_used = 0;
   int64_t heights_used = 0;
   int64_t heights_rejected = 0;
   int64_t poses_used = 0;
@@ -92,14 +107,22 @@ class FuseEstimator {
   void set_site(const Site& site);
   bool has_site() const { return site_.has_value(); }
   void on_range(const uwb_range_t& m);
+  void on_rx(const uwb_rx_t& m);  // UWB_RX: TDoA blinks and anchor syncs
+  // Fuses the blinks still waiting for more receptions (at the end of a log).
+  void flush() { tdoa_.flush(); }
   void on_ins_module(const pose_t& m);  // INS_MODULE
   void on_pose_ins(const pose_t& m);    // POSE_INS
   void on_step(const step_t& m);        // STEP
   void on_altitude(const altitude_t& m);
+  // IMU: the gyro of the tag (device_id) turns the constant-velocity prediction between
+  // displacements (gyro_heading.hpp); nothing else of it is used.
+  void on_imu(const imu_t& m);
   // Another estimator's pose (POSE_TDOA, POSE_AOA, ...), `kind` naming it in the sources.
   void on_pose(const pose_t& m, const std::string& kind);
 
   const FuseStats& stats() const { return stats_; }
+  // The UWB_RX side: ips-uwb-tdoa's blink grouping and clock synchronisation counters.
+  const uwb_tdoa::TdoaStats& tdoa_stats() const { return tdoa_.stats(); }
   const FuseParams& params() const { return params_; }
   // The tag's current state, for tests.
   std::optional<FuseFilter> filter(const std::string& tag_id) const;
@@ -112,9 +135,10 @@ class FuseEstimator {
     kSrcStep = 8,
     kSrcAltitude = 16,
     kSrcPose = 32,
+    kSrcTdoa = 64,
   };
   struct Measurement {
-    enum class Kind { kRange, kHeight, kPosition, kDisplacement } kind = Kind::kRange;
+    enum class Kind { kRange, kHeight, kPosition, kDisplacement, kTdoa } kind = Kind::kRange;
     utime_t t = 0;
     utime_t t0 = 0;  // displacement: the start of its interval
     int anchor = -1;
@@ -123,11 +147,13 @@ class FuseEstimator {
     Eigen::Vector3d vec = Eigen::Vector3d::Zero();  // position, or displacement
     Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
     bool horizontal_only = false;
+    TdoaArrivals tdoa;  // a blink's arrivals, nearest first
     uint32_t source = 0;
     std::string pose_kind;
   };
   struct Snapshot {
     utime_t t = 0;
+    utime_t velocity_t = 0;  // the time the velocity's direction is of (a displacement's middle)
     FuseFilter filter;
     utime_t last_absolute = 0;
     int rejections = 0;
@@ -145,6 +171,8 @@ class FuseEstimator {
     Eigen::Vector3d last_dr_position = Eigen::Vector3d::Zero();
     std::deque<Measurement> init_ranges;  // waiting for a multilateration start
     utime_t newest = 0;
+    bool tight_tdoa = false;  // blinks fused: POSE_TDOA is not
+    GyroHeading gyro;
     PoseTally tally;
     uint32_t sources = 0;  // contributed since the last pose
     std::vector<std::string> pose_kinds;
@@ -160,14 +188,19 @@ class FuseEstimator {
   // Moves the snapshot's filter to time `to`, through the displacements of the history.
   void predict(const Track& t, Snapshot& s, utime_t to) const;
   void apply(Track& t, Snapshot& s, const Measurement& m, bool live);
+  // An absolute measurement accepted or gated: after reinit_after_rejections gated in a row
+  // the track is widened.
+  void count_absolute(Snapshot& s, utime_t t, bool accepted, bool live);
   void maybe_publish(const std::string& tag_id, Track& t);
   void on_dead_reckoning(const pose_t& m, DisplacementSource src, uint32_t bit);
   bool accept_displacement(Track& t, DisplacementSource src);
+  void on_tdoa_epoch(const uwb_tdoa::TdoaEpoch& e);
 
   PoseSink sink_;
   std::string source_;
   std::optional<Site> site_;
   FuseParams params_;
+  uwb_tdoa::TdoaEstimator tdoa_;  // clocks and blinks only (no tracker)
   std::map<std::string, Track> tracks_;
   FuseStats stats_;
 };

@@ -5,9 +5,13 @@
 // chapter 4, and its drift). Two ways to move the state to a later time:
 //  - by a reported displacement d over dt (foot INS, PDR steps): p += R(psi) d,
 //    v = R(psi) d / dt, with noise growing with the distance (001's INS as the motion model);
-//  - without one, constant velocity with white-noise acceleration (UWB alone).
+//  - without one, constant velocity with white-noise acceleration (UWB alone), the horizontal
+//    velocity turned by what a gyro carried by the tag measured about the vertical meanwhile
+//    (constant speed, the heading from the gyro): a 2 Hz displacement source leaves gaps in
+//    which the walker may turn a corner.
 // psi follows a random walk either way. In 2D (the tag's height from the site) z and vz stay put.
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 #include <cmath>
 
 #include "core/ekf.hpp"
@@ -25,12 +29,27 @@ struct FuseFilter {
   Covariance P = Covariance::Identity();
   bool planar = false;  // z and vz fixed
 
-  void predict_cv(double dt, double accel_psd, double psi_walk_var_per_s) {
+  // turn_mid_rad, turn_end_rad: how far the velocity has turned by the middle and the end of
+  // the step (the gyro's).
+  void predict_cv(double dt, double accel_psd, double psi_walk_var_per_s, double turn_mid_rad = 0,
+                  double turn_end_rad = 0) {
     if (dt <= 0) return;
     const int d = planar ? 2 : 3;
     Covariance F = Covariance::Identity();
     for (int i = 0; i < d; ++i) F(i, kVel + i) = dt;
-    for (int i = 0; i < d; ++i) x(i) += dt * x(kVel + i);
+    if (turn_mid_rad != 0 || turn_end_rad != 0) {
+      // Midpoint rule: the position moves along the velocity as turned by the middle.
+      const Eigen::Matrix2d half = Eigen::Rotation2Dd(turn_mid_rad).toRotationMatrix();
+      const Eigen::Matrix2d full = Eigen::Rotation2Dd(turn_end_rad).toRotationMatrix();
+      F.block<2, 2>(0, kVel) = dt * half;
+      F.block<2, 2>(kVel, kVel) = full;
+      const Eigen::Vector2d v = x.segment<2>(kVel);
+      x.head<2>() += dt * half * v;
+      x.segment<2>(kVel) = full * v;
+      if (d == 3) x(2) += dt * x(kVel + 2);
+    } else {
+      for (int i = 0; i < d; ++i) x(i) += dt * x(kVel + i);
+    }
     P = F * P * F.transpose();
     const double dt2 = dt * dt;
     for (int i = 0; i < d; ++i) {

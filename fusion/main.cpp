@@ -1,5 +1,6 @@
-// ips-fuse: one best estimate per tag from every sensor (POSE_FUSED): UWB ranges, foot-INS or
-// PDR displacements, barometric heights and other estimators' poses (fuse_estimator.hpp).
+// ips-fuse: one best estimate per tag from every sensor (POSE_FUSED): UWB ranges and TDoA
+// blinks, foot-INS or PDR displacements, the tag's gyro, barometric heights and other
+// estimators' poses (fuse_estimator.hpp).
 #include <spdlog/spdlog.h>
 
 #include "core/channels.hpp"
@@ -14,12 +15,14 @@ constexpr const char* kProgram = "ips-fuse";
 
 int main(int argc, char** argv) {
   CLI::App app{
-      "ips-fuse: hybrid per-tag fusion. One EKF per tag takes UWB two-way ranges (UWB_RANGE, "
-      "tightly coupled), a dead-reckoning source's displacements as its motion (INS_MODULE, "
-      "POSE_INS or STEP, with the source's heading bias estimated), barometric heights "
-      "(ALTITUDE) and other estimators' poses (POSE_TDOA, POSE_AOA), each gated, late messages "
-      "fused in time order; publishes POSE_FUSED with covariance, its source naming what "
-      "contributed. Parameters: the site's estimators.fuse.",
+      "ips-fuse: hybrid per-tag fusion. One EKF per tag takes UWB two-way ranges (UWB_RANGE) "
+      "and TDoA blinks (UWB_RX, with ips-uwb-tdoa's clock synchronisation), both tightly "
+      "coupled; a dead-reckoning source's displacements as its motion (INS_MODULE, POSE_INS or "
+      "STEP, with the source's heading bias estimated), the tag's gyro (IMU) turning it between "
+      "them; barometric heights (ALTITUDE); other estimators' poses (POSE_TDOA until blinks "
+      "come, POSE_AOA). Each update is gated, late messages are fused in time order; publishes "
+      "POSE_FUSED with covariance, its source naming what contributed. Parameters: the site's "
+      "estimators.fuse (and estimators.uwb_tdoa for the clocks).",
       kProgram};
   ips::CommonOptions opts;
   ips::add_common_options(app, opts);
@@ -33,8 +36,12 @@ int main(int argc, char** argv) {
     int64_t reported = 0;
     auto account = [&] {
       const auto& s = est.stats();
+      const auto& x = est.tdoa_stats();
+      const int64_t rx_drops = x.dropped_invalid + x.dropped_unknown_anchor + x.dropped_late +
+                               x.dropped_duplicate + x.dropped_too_many_tags;
       const int64_t drops = s.dropped_invalid + s.dropped_unknown_anchor + s.dropped_late +
-                            s.dropped_no_site + s.dropped_too_many_tags + s.dropped_other_source;
+                            s.dropped_no_site + s.dropped_too_many_tags + s.dropped_other_source +
+                            rx_drops;
       if (drops == reported) return;
       node.counters().drops += drops - reported;
       reported = drops;
@@ -44,13 +51,28 @@ int main(int argc, char** argv) {
                         std::to_string(s.dropped_no_site) + " before a site, " +
                         std::to_string(s.dropped_too_many_tags) + " beyond max_tags, " +
                         std::to_string(s.dropped_other_source) +
-                        " from a second dead-reckoning source");
+                        " from a second dead-reckoning source; UWB_RX: " +
+                        std::to_string(x.dropped_invalid) + " invalid, " +
+                        std::to_string(x.dropped_unknown_anchor) + " unknown anchor, " +
+                        std::to_string(x.dropped_late + x.dropped_duplicate) +
+                        " late or repeated, " + std::to_string(x.dropped_too_many_tags) +
+                        " beyond max_tags");
     };
     node.subscribe<ips::uwb_range_t>(opts.channel(ips::channel::kUwbRange),
                                      [&](const ips::uwb_range_t& m, const std::string&) {
                                        est.on_range(m);
                                        account();
                                      });
+    node.subscribe<ips::uwb_rx_t>(opts.channel(ips::channel::kUwbRx),
+                                  [&](const ips::uwb_rx_t& m, const std::string&) {
+                                    est.on_rx(m);
+                                    account();
+                                  });
+    node.subscribe<ips::imu_t>(opts.channel(ips::channel::kImu),
+                               [&](const ips::imu_t& m, const std::string&) {
+                                 est.on_imu(m);
+                                 account();
+                               });
     node.subscribe<ips::pose_t>(opts.channel(ips::channel::kInsModule),
                                 [&](const ips::pose_t& m, const std::string&) {
                                   est.on_ins_module(m);

@@ -123,6 +123,11 @@ TdoaEstimator::TdoaEstimator(PoseSink pose_sink, ClockSink clock_sink, std::stri
   arrivals_.reserve(64);
 }
 
+void TdoaEstimator::set_epoch_sink(EpochSink sink, bool track) {
+  epoch_sink_ = std::move(sink);
+  track_ = track;
+}
+
 void TdoaEstimator::set_site(const Site& site) {
   TdoaParams p = parse_tdoa_params(site.estimator_params("uwb_tdoa"), site);
   params_ = std::move(p);
@@ -281,6 +286,24 @@ void TdoaEstimator::process(const std::string& tag_id, Track& t, const Blink& b)
     ++stats_.epochs_too_few;
     return;
   }
+  if (epoch_sink_) {
+    std::sort(arrivals_.begin(), arrivals_.end(), [](const Arrival& a, const Arrival& b2) {
+      return counter_diff(a.ticks, b2.ticks) < 0;
+    });
+    TdoaEpoch e;
+    e.tag_id = &tag_id;
+    e.utime = b.utime;
+    const double m_per_tick = kSpeedOfLightMps / counter_hz_;
+    for (const Arrival& a : arrivals_) {
+      if (e.count == kMaxEpochArrivals) break;
+      e.anchor[e.count] = clocks_.anchor_position(a.anchor);
+      e.range_m[e.count] = counter_diff(a.ticks, arrivals_.front().ticks) * m_per_tick;
+      e.var_m2[e.count] = a.var_m2;
+      ++e.count;
+    }
+    epoch_sink_(e);
+  }
+  if (!track_) return;
   if (t.initialised && b.utime - t.last_accept_utime > s_to_utime(params_.max_coast_s))
     t.initialised = false;
   if (!t.initialised) {

@@ -7,6 +7,7 @@
 // Levenberg-Marquardt TDoA fix (tdoa_least_squares.hpp).
 // Pure: takes uwb_rx_t, emits pose_t and clock_t through callbacks, never reads a clock; runs on
 // message time only, so a log replayed gives the same output.
+#include <array>
 #include <deque>
 #include <functional>
 #include <ips/clock_t.hpp>
@@ -23,6 +24,20 @@
 #include "estimators/uwb_tdoa/clock_sync.hpp"
 
 namespace ips::uwb_tdoa {
+
+// One blink's receptions in master time, for a tightly coupled filter (ips-fuse runs this class
+// on UWB_RX for its clock synchronisation and blink grouping): anchor k received it at
+// `range_m[k]` metres of light after the earliest arrival, with variance `var_m2[k]` (reception
+// plus that anchor's clock estimate). At most kMaxEpochArrivals anchors, the earliest first.
+inline constexpr int kMaxEpochArrivals = 16;
+struct TdoaEpoch {
+  const std::string* tag_id = nullptr;
+  utime_t utime = 0;
+  int count = 0;
+  std::array<Eigen::Vector3d, kMaxEpochArrivals> anchor;
+  std::array<double, kMaxEpochArrivals> range_m{};
+  std::array<double, kMaxEpochArrivals> var_m2{};
+};
 
 enum class ReferenceChoice {
   kNearest,  // the anchor nearest the tag's estimate (before one: the earliest arrival)
@@ -77,7 +92,12 @@ class TdoaEstimator {
  public:
   using PoseSink = std::function<void(const pose_t&)>;
   using ClockSink = std::function<void(const clock_t&)>;
+  using EpochSink = std::function<void(const TdoaEpoch&)>;
   TdoaEstimator(PoseSink pose_sink, ClockSink clock_sink, std::string source_name = "uwb_tdoa");
+
+  // Every blink with receptions at 2 or more synchronised anchors goes to `sink` before the
+  // tracker sees it; with `track` false there is no tracker (no poses), only clocks and epochs.
+  void set_epoch_sink(EpochSink sink, bool track);
 
   // Takes the anchors, tag heights and parameters; resets every clock and track. Throws
   // ConfigError on bad parameters (the previous site stays).
@@ -139,6 +159,8 @@ class TdoaEstimator {
   Eigen::Vector3d track_position(const Track& t) const;
 
   PoseSink pose_sink_;
+  EpochSink epoch_sink_;
+  bool track_ = true;
   std::string source_;
   ClockSync clocks_;
   std::optional<Site> site_;

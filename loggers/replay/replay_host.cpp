@@ -182,6 +182,7 @@ void ReplayHost::finish() {
   if (tdoa_) tdoa_->flush();
   if (aoa_) aoa_->finish();
   if (altitude_) altitude_->finish();
+  if (fuse_) fuse_->flush();
 }
 
 void ReplayHost::process(const std::string& channel, int64_t timestamp, const uint8_t* data,
@@ -216,13 +217,15 @@ void ReplayHost::process(const std::string& channel, int64_t timestamp, const ui
     }
     if (twr_) twr_->on_range(m);
     if (fuse_) fuse_->on_range(m);
-  } else if (tdoa_ && channel == channels_.channel(channel::kUwbRx)) {
+  } else if ((tdoa_ || fuse_) && channel == channels_.channel(channel::kUwbRx)) {
     uwb_rx_t m;
     if (!decode_message(m, data, size)) {
       ++stats_.undecodable;
       return;
     }
-    tdoa_->on_rx(m);
+    // ips-fuse hears a blink before the POSE_TDOA made of it, as on the bus.
+    if (fuse_) fuse_->on_rx(m);
+    if (tdoa_) tdoa_->on_rx(m);
   } else if (aoa_ && channel == channels_.channel(channel::kBleAoa)) {
     ble_aoa_t m;
     if (!decode_message(m, data, size)) {
@@ -230,12 +233,13 @@ void ReplayHost::process(const std::string& channel, int64_t timestamp, const ui
       return;
     }
     aoa_->on_event(m);
-  } else if ((pdr_ || ins_) && channel == channels_.channel(channel::kImu)) {
+  } else if ((pdr_ || ins_ || fuse_) && channel == channels_.channel(channel::kImu)) {
     imu_t m;
     if (!decode_message(m, data, size)) {
       ++stats_.undecodable;
       return;
     }
+    if (fuse_) fuse_->on_imu(m);
     if (pdr_) pdr_->on_imu(m);
     if (ins_) ins_->on_imu(m);
   } else if (altitude_ && channel == channels_.channel(channel::kBaro)) {

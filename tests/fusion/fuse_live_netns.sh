@@ -6,6 +6,8 @@
 #    in-process test measures 0.22 m for this seed) over at least 150 poses (one per range or INS
 #    position when 0.1 s have passed: 161 in-process);
 #  - POSE_FUSED's source names the ranges and the INS module; HEALTH from ips-fuse is there;
+#  - ips-fuse-latency (the latency benchmark's tool, scripts/bench-fuse-latency) against ips-fuse
+#    for 2 s with 3 tags: every range's pose arrives, the percentiles are printed;
 #  - --help exits 0; a bad --site and an unknown flag are one line each and status 2.
 # Exit 77 (skipped) when no network namespace can be made here.
 set -euo pipefail
@@ -47,6 +49,18 @@ mine = [health(d) for ch, _, d in ev if ch == 'HEALTH' and health(d)['source'] =
 assert mine and mine[-1]["msgs_in"] > 200, mine[-1:]
 print('sources:', sorted(sources), '; HEALTH msgs_in', mine[-1]['msgs_in'])
 PY
+
+"$BIN/ips-fuse-latency" --print-site --tags 3 > "$WORK/latency.yaml"
+"$BIN/ips-fuse" --site "$WORK/latency.yaml" --log-level warn & fuse=$!; pids+=($fuse)
+"$BIN/ips-bus-check" --wait-for ips-fuse --timeout 20 > /dev/null || fail "ips-fuse did not come up"
+out=$("$BIN/ips-fuse-latency" --tags 3 --seconds 2 --warmup 1 --cpu-pid $fuse) ||
+  fail "ips-fuse-latency: $out"
+stop $fuse ips-fuse
+echo "$out"
+# 3 tags x 8 anchors x 10 Hz x 2 s; a loaded machine may drop a datagram or two.
+echo "$out" | grep -qE "^ranges published 4[0-9]{2}, poses matched 4[0-9]{2}, missing [0-4]$" ||
+  fail "ips-fuse-latency: poses missing"
+echo "$out" | grep -qE "^latency us: p50 [0-9]+ p90 [0-9]+ p99 [0-9]+" || fail "no percentiles"
 
 "$BIN/ips-fuse" --help | grep -q "POSE_FUSED" || fail "--help does not describe the program"
 printf 'name: bad\nanchors: []\ntags: [{id: T1}]\nestimators:\n  fuse: {displacement: teleport}\n' \

@@ -4,7 +4,8 @@
 // negative numbers, unknown ids, time going backwards), which must publish only finite positions
 // and never crash; UWB_RX bytes likewise into the TDoA estimator (syncs and blinks with any
 // counters, ids and times), which must publish only finite positions and clock estimates;
-// BLE_AOA, IMU and BARO sequences into the AoA, PDR and altitude estimators.
+// BLE_AOA, IMU and BARO sequences into the AoA, PDR and altitude estimators; a mixed sequence of
+// every input of ips-fuse into the fusion estimator (selector 16 and up).
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
@@ -27,6 +28,7 @@
 #include "estimators/pdr/pdr_estimator.hpp"
 #include "estimators/uwb_tdoa/tdoa_estimator.hpp"
 #include "estimators/uwb_twr/twr_estimator.hpp"
+#include "fusion/fuse_estimator.hpp"
 
 namespace {
 const ips::Site& lab_site() {
@@ -164,13 +166,57 @@ void feed_altitude(const uint8_t* data, size_t size) {
   for_each_message<ips::baro_t>(data, size, [&](const ips::baro_t& m) { est.on_baro(m); });
   est.finish();
 }
+// A mixed sequence into ips-fuse: [kind byte][length byte][message bytes]..., the kind picking
+// UWB_RANGE, UWB_RX, IMU, INS_MODULE, POSE_INS, STEP, ALTITUDE, POSE_TDOA or POSE_AOA. The site
+// has TWR and TDoA anchors and a tag with a start pose, so every path runs from the first byte.
+void feed_fuse(const uint8_t* data, size_t size) {
+  static const ips::Site site = ips::parse_site_text(
+      "name: lab\nanchors:\n"
+      "  - {id: A1, position: [0, 0, 2.4]}\n  - {id: A2, position: [10, 0, 2.4]}\n"
+      "  - {id: A3, position: [10, 8, 2.4]}\n  - {id: A4, position: [0, 8, 2.4]}\n"
+      "  - {id: D1, kind: uwb_tdoa, position: [0.3, 0.3, 2.6]}\n"
+      "  - {id: D2, kind: uwb_tdoa, position: [9.7, 0.3, 2.6]}\n"
+      "  - {id: D3, kind: uwb_tdoa, position: [9.7, 7.7, 2.6]}\n"
+      "tags:\n  - {id: T1, height_m: 1.2, start_position: [2, 1.5]}\n  - {id: T3}\n"
+      "estimators:\n  fuse: {max_tags: 8}\n",
+      "fuzz-fuse-site");
+  ips::fusion::FuseEstimator est([](const ips::pose_t& p) {
+    for (double v : p.position)
+      if (!std::isfinite(v)) throw std::logic_error("non-finite fused position published");
+    for (double v : p.position_cov)
+      if (!std::isfinite(v)) throw std::logic_error("non-finite fused covariance published");
+  });
+  est.set_site(site);
+  size_t pos = 0;
+  while (pos + 2 < size) {
+    const uint8_t kind = data[pos] % 9;
+    const size_t len = std::min<size_t>(data[pos + 1], size - pos - 2);
+    const uint8_t* m = data + pos + 2;
+    pos += 2 + len;
+    auto feed = [&](auto msg, auto&& use) {
+      if (ips::decode_message(msg, m, len)) use(msg);
+    };
+    switch (kind) {
+      case 0: feed(ips::uwb_range_t{}, [&](const ips::uwb_range_t& x) { est.on_range(x); }); break;
+      case 1: feed(ips::uwb_rx_t{}, [&](const ips::uwb_rx_t& x) { est.on_rx(x); }); break;
+      case 2: feed(ips::imu_t{}, [&](const ips::imu_t& x) { est.on_imu(x); }); break;
+      case 3: feed(ips::pose_t{}, [&](const ips::pose_t& x) { est.on_ins_module(x); }); break;
+      case 4: feed(ips::pose_t{}, [&](const ips::pose_t& x) { est.on_pose_ins(x); }); break;
+      case 5: feed(ips::step_t{}, [&](const ips::step_t& x) { est.on_step(x); }); break;
+      case 6: feed(ips::altitude_t{}, [&](const ips::altitude_t& x) { est.on_altitude(x); }); break;
+      case 7: feed(ips::pose_t{}, [&](const ips::pose_t& x) { est.on_pose(x, "tdoa"); }); break;
+      default: feed(ips::pose_t{}, [&](const ips::pose_t& x) { est.on_pose(x, "aoa"); }); break;
+    }
+  }
+  est.flush();
+}
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (size < 1) return 0;
   const uint8_t* d = data + 1;
   const size_t n = size - 1;
-  switch (data[0] % 16) {
+  switch (data[0] % 32) {
     case 0: decode_one<ips::site_t>(d, n); break;
     case 1: decode_one<ips::pose_t>(d, n); break;
     case 2: decode_one<ips::uwb_rx_t>(d, n); break;
@@ -186,7 +232,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     case 12: feed_tdoa(d, n); break;
     case 13: feed_aoa(d, n); break;
     case 14: feed_pdr(d, n); break;
-    default: feed_altitude(d, n); break;
+    case 15: feed_altitude(d, n); break;
+    default: feed_fuse(d, n); break;
   }
   return 0;
 }

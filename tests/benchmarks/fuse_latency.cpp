@@ -1,0 +1,301 @@
+// ips-fuse-latency: issue 10's performance figure, a timed run against a live ips-fuse. It
+// publishes, over real LCM, UWB ranges from --tags tags to --anchors anchors at --range-hz
+// (tags walking circles in a 20 x 20 m hall, ranges exact plus 5 cm noise) and each tag's IMU at
+// --imu-hz, and subscribes POSE_FUSED. The site it prints for ips-fuse (--print-site) sets
+// publish_period_s to 0, so every range gives a pose stamped with that range's time: the latency
+// is the wall time from the range's publication to its pose's arrival. Reports the percentiles,
+// the poses missing, and with --cpu-pid the CPU used by that process meanwhile. As a baseline it
+// also receives its own ranges: the bus's and the machine's share of the latency, without
+// ips-fuse. Per range, the pose's arrival minus the range's own arrival is what ips-fuse adds
+// (its receive, update and publish, and the second hop).
+#include <poll.h>
+#include <unistd.h>
+
+#include <CLI/CLI.hpp>
+#include <Eigen/Core>
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <ips/imu_t.hpp>
+#include <ips/pose_t.hpp>
+#include <ips/uwb_range_t.hpp>
+#include <lcm/lcm-cpp.hpp>
+#include <map>
+#include <random>
+#include <sstream>
+#include <string>
+#include <vector>
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+using Clock = std::chrono::steady_clock;
+
+struct Options {
+  int tags = 10;
+  int anchors = 8;
+  double range_hz = 10;
+  double imu_hz = 100;
+  double seconds = 20;
+  double warmup_s = 2;
+  std::string lcm_url;
+  int cpu_pid = 0;
+  bool print_site = false;
+};
+
+Eigen::Vector3d anchor_position(int k, int n) {
+  // On a 20 x 20 m hall's walls at 2.5 m, evenly around.
+  const double a = 2 * kPi * k / n;
+  return {10 + 10 * std::cos(a), 10 + 10 * std::sin(a), 2.5};
+}
+
+std::string tag_id(int i) {
+  return (i < 10 ? "T0" : "T") + std::to_string(i);
+}
+
+std::string site_yaml(const Options& o) {
+  std::ostringstream s;
+  s << "# ips-fuse-latency's hall: " << o.anchors << " anchors, " << o.tags << " tags.\n"
+    << "name: latency-hall\nanchors:\n";
+  for (int k = 0; k < o.anchors; ++k) {
+    const Eigen::Vector3d p = anchor_position(k, o.anchors);
+    s << "  - {id: A" << k + 1 << ", kind: uwb, position: [" << p.x() << ", " << p.y() << ", "
+      << p.z() << "]}\n";
+  }
+  s << "tags:\n";
+  for (int i = 0; i < o.tags; ++i) s << "  - {id: " << tag_id(i) << ", height_m: 1.2}\n";
+  s << "estimators:\n  fuse:\n    publish_period_s: 0\n    range_sigma_m: 0.05\n";
+  return s.str();
+}
+
+// Tag i walks a circle of radius 2 + 0.5 i m around the hall's centre at 1 m/s.
+Eigen::Vector3d tag_position(int i, double t) {
+  const double r = 2 + 0.5 * (i % 14);
+  const double a = t / r + i;
+  return {10 + r * std::cos(a), 10 + r * std::sin(a), 1.2};
+}
+
+double cpu_seconds(int pid) {
+  std::ifstream f("/proc/" + std::to_string(pid) + "/stat");
+  std::string text((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+  const size_t close = text.rfind(')');
+  if (close == std::string::npos) return std::nan("");
+  std::istringstream rest(text.substr(close + 2));
+  std::string field;
+  double utime = 0, stime = 0;
+  // Fields after the name: state is field 3; utime and stime are fields 14 and 15.
+  for (int k = 3; k <= 15 && rest >> field; ++k) {
+    if (k == 14) utime = std::stod(field);
+    if (k == 15) stime = std::stod(field);
+  }
+  return (utime + stime) / static_cast<double>(sysconf(_SC_CLK_TCK));
+}
+
+double percentile(std::vector<double> v, double p) {
+  if (v.empty()) return std::nan("");
+  std::sort(v.begin(), v.end());
+  const double k = (static_cast<double>(v.size()) - 1) * p / 100.0;
+  const size_t lo = static_cast<size_t>(k);
+  const size_t hi = std::min(lo + 1, v.size() - 1);
+  return v[lo] + (v[hi] - v[lo]) * (k - static_cast<double>(lo));
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options o;
+  CLI::App app{
+      "ips-fuse-latency: publishes UWB ranges and IMU samples for many tags to a running "
+      "ips-fuse over LCM and measures the latency from each range's publication to the "
+      "POSE_FUSED it causes. Start ips-fuse with the site from --print-site.",
+      "ips-fuse-latency"};
+  app.add_option("--tags", o.tags, "tags")->check(CLI::Range(1, 99));
+  app.add_option("--anchors", o.anchors, "anchors ranged by every tag")->check(CLI::Range(3, 32));
+  app.add_option("--range-hz", o.range_hz, "ranging rate per tag and anchor")
+      ->check(CLI::Range(0.1, 1000.0));
+  app.add_option("--imu-hz", o.imu_hz, "IMU rate per tag (0: none)")->check(CLI::Range(0.0, 2000.0));
+  app.add_option("--seconds", o.seconds, "measured time")->check(CLI::Range(0.5, 3600.0));
+  app.add_option("--warmup", o.warmup_s, "seconds published before measuring")
+      ->check(CLI::Range(0.0, 60.0));
+  app.add_option("--lcm-url", o.lcm_url, "LCM URL (default: LCM_DEFAULT_URL or LCM's)");
+  app.add_option("--cpu-pid", o.cpu_pid, "report the CPU time of this process (ips-fuse)");
+  app.add_flag("--print-site", o.print_site, "print the site for ips-fuse --site and exit");
+  CLI11_PARSE(app, argc, argv);
+  if (o.print_site) {
+    std::fputs(site_yaml(o).c_str(), stdout);
+    return 0;
+  }
+
+  lcm::LCM bus(o.lcm_url);
+  if (!bus.good()) {
+    std::fprintf(stderr, "ips-fuse-latency: cannot open LCM (%s)\n", o.lcm_url.c_str());
+    return 2;
+  }
+  // Sent ranges by (tag, utime), with their wall time.
+  std::map<std::pair<std::string, int64_t>, Clock::time_point> sent;
+  std::vector<double> latency_us;
+  // The same ranges as heard back on UWB_RANGE (the loop through the kernel and this process).
+  std::map<std::pair<std::string, int64_t>, Clock::time_point> sent_own;
+  std::vector<double> own_us, added_us;
+  std::map<std::pair<std::string, int64_t>, Clock::time_point> heard_own;
+  int64_t measured_sent = 0, poses = 0;
+  bool measuring = false;
+  struct Handler {
+    std::map<std::pair<std::string, int64_t>, Clock::time_point>* sent;
+    std::vector<double>* latency_us;
+    int64_t* poses;
+    std::map<std::pair<std::string, int64_t>, Clock::time_point>* sent_own;
+    std::vector<double>* own_us;
+    std::map<std::pair<std::string, int64_t>, Clock::time_point>* heard_own;
+    std::vector<double>* added_us;
+    void on_pose(const lcm::ReceiveBuffer*, const std::string&, const ips::pose_t* p) {
+      const auto now = Clock::now();
+      ++*poses;
+      const std::pair<std::string, int64_t> key{p->tag_id, p->utime};
+      const auto it = sent->find(key);
+      if (it == sent->end()) return;
+      latency_us->push_back(std::chrono::duration<double, std::micro>(now - it->second).count());
+      sent->erase(it);
+      const auto own = heard_own->find(key);
+      if (own == heard_own->end()) return;
+      added_us->push_back(std::chrono::duration<double, std::micro>(now - own->second).count());
+      heard_own->erase(own);
+    }
+    void on_range(const lcm::ReceiveBuffer*, const std::string&, const ips::uwb_range_t* r) {
+      const auto now = Clock::now();
+      const auto it = sent_own->find({r->tag_id, r->utime});
+      if (it == sent_own->end()) return;
+      own_us->push_back(std::chrono::duration<double, std::micro>(now - it->second).count());
+      sent_own->erase(it);
+      (*heard_own)[{r->tag_id, r->utime}] = now;
+    }
+  } handler{&sent, &latency_us, &poses, &sent_own, &own_us, &heard_own, &added_us};
+  bus.subscribe("POSE_FUSED", &Handler::on_pose, &handler);
+  bus.subscribe("UWB_RANGE", &Handler::on_range, &handler);
+
+  // Waits up to timeout_ms for a message, then handles every one that is there (handleTimeout
+  // takes one at a time: a backlog would add to the latencies measured).
+  auto receive_all = [&](int timeout_ms) {
+    pollfd pfd{bus.getFileno(), POLLIN, 0};
+    int ready = poll(&pfd, 1, timeout_ms);
+    while (ready > 0) {
+      bus.handleTimeout(0);
+      ready = poll(&pfd, 1, 0);
+    }
+  };
+
+  std::mt19937_64 rng(1);
+  std::normal_distribution<double> noise(0.0, 0.05);
+  const auto start = Clock::now();
+  const int64_t wall0_us = std::chrono::duration_cast<std::chrono::microseconds>(
+                               std::chrono::system_clock::now().time_since_epoch())
+                               .count();
+  const double range_period = 1.0 / o.range_hz;
+  const double imu_period = o.imu_hz > 0 ? 1.0 / o.imu_hz : 0;
+  // Each message's due time: ranges of tag i from anchor k staggered over the period.
+  struct Stream {
+    double next_s;
+    int tag, anchor;  // anchor -1: the IMU
+  };
+  std::vector<Stream> streams;
+  for (int i = 0; i < o.tags; ++i) {
+    for (int k = 0; k < o.anchors; ++k)
+      streams.push_back({range_period * (k + static_cast<double>(i) / o.tags) / o.anchors, i, k});
+    if (imu_period > 0) streams.push_back({imu_period * i / o.tags, i, -1});
+  }
+  double cpu0 = 0, measure_start_s = 0;
+  const double end_s = o.warmup_s + o.seconds;
+  ips::uwb_range_t r{};
+  r.source = "ips-fuse-latency";
+  ips::imu_t imu{};
+  imu.source = "ips-fuse-latency";
+  imu.device_utime = -1;
+  for (int a = 0; a < 3; ++a) imu.mag_ut[a] = std::nan("");
+  int64_t published = 0;
+  for (;;) {
+    const double now_s = std::chrono::duration<double>(Clock::now() - start).count();
+    if (!measuring && now_s >= o.warmup_s) {
+      measuring = true;
+      measure_start_s = now_s;
+      latency_us.clear();
+      sent.clear();
+      own_us.clear();
+      sent_own.clear();
+      added_us.clear();
+      heard_own.clear();
+      poses = 0;
+      if (o.cpu_pid) cpu0 = cpu_seconds(o.cpu_pid);
+    }
+    if (now_s >= end_s) break;
+    double next_due = end_s;
+    for (Stream& s : streams) {
+      if (s.next_s <= now_s) {
+        const int64_t utime = wall0_us + static_cast<int64_t>(std::llround(s.next_s * 1e6));
+        const std::string id = tag_id(s.tag);
+        if (s.anchor >= 0) {
+          r.utime = utime;
+          r.tag_id = id;
+          r.anchor_id = "A" + std::to_string(s.anchor + 1);
+          r.range_m = (tag_position(s.tag, s.next_s) - anchor_position(s.anchor, o.anchors)).norm() +
+                      noise(rng);
+          r.seq = static_cast<int32_t>(published);
+          if (measuring) {
+            const auto now = Clock::now();
+            sent[{id, utime}] = now;
+            sent_own[{id, utime}] = now;
+            ++measured_sent;
+          }
+          bus.publish("UWB_RANGE", &r);
+          s.next_s += range_period;
+        } else {
+          imu.utime = utime;
+          imu.device_id = id;
+          imu.accel[0] = imu.accel[1] = 0;
+          imu.accel[2] = 9.81;
+          imu.gyro[0] = imu.gyro[1] = 0;
+          imu.gyro[2] = 1.0 / (2 + 0.5 * (s.tag % 14));  // walking the circle
+          bus.publish("IMU", &imu);
+          s.next_s += imu_period;
+        }
+        ++published;
+      }
+      next_due = std::min(next_due, s.next_s);
+    }
+    // Receive until the next message is due.
+    const double wait_s =
+        next_due - std::chrono::duration<double>(Clock::now() - start).count();
+    receive_all(std::max(0, static_cast<int>(wait_s * 1000)));
+  }
+  // The last poses: half a second.
+  const auto drain_end = Clock::now() + std::chrono::milliseconds(500);
+  while (Clock::now() < drain_end) receive_all(50);
+  const double measured_s =
+      std::chrono::duration<double>(Clock::now() - start).count() - measure_start_s;
+  const double cpu1 = o.cpu_pid ? cpu_seconds(o.cpu_pid) : 0;
+  std::printf(
+      "ips-fuse-latency: %d tags x %d anchors at %g Hz (%g ranges/s) + IMU %g Hz per tag (%g/s), "
+      "%g s measured\n",
+      o.tags, o.anchors, o.range_hz, o.tags * o.anchors * o.range_hz, o.imu_hz, o.tags * o.imu_hz,
+      o.seconds);
+  std::printf("ranges published %lld, poses matched %zu, missing %zu\n",
+              static_cast<long long>(measured_sent), latency_us.size(), sent.size());
+  std::printf("latency us: p50 %.0f p90 %.0f p99 %.0f p99.9 %.0f max %.0f\n",
+              percentile(latency_us, 50), percentile(latency_us, 90), percentile(latency_us, 99),
+              percentile(latency_us, 99.9),
+              latency_us.empty() ? std::nan("")
+                                 : *std::max_element(latency_us.begin(), latency_us.end()));
+  std::printf("baseline, own ranges heard back, us: p50 %.0f p90 %.0f p99 %.0f max %.0f\n",
+              percentile(own_us, 50), percentile(own_us, 90), percentile(own_us, 99),
+              own_us.empty() ? std::nan("") : *std::max_element(own_us.begin(), own_us.end()));
+  std::printf("added by ips-fuse (pose minus own range arrival), us: p50 %.0f p90 %.0f p99 %.0f "
+              "max %.0f\n",
+              percentile(added_us, 50), percentile(added_us, 90), percentile(added_us, 99),
+              added_us.empty() ? std::nan("")
+                               : *std::max_element(added_us.begin(), added_us.end()));
+  if (o.cpu_pid)
+    std::printf("cpu of pid %d: %.1f %% of one core\n", o.cpu_pid,
+                100.0 * (cpu1 - cpu0) / measured_s);
+  return latency_us.empty() ? 1 : 0;
+}
