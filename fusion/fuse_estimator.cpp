@@ -6,6 +6,7 @@
 
 #include "core/geometry.hpp"
 #include "core/multilateration.hpp"
+#include "estimators/aoa/models/aoa_bearing.hpp"
 #include "estimators/uwb_twr/models/uwb_range.hpp"
 #include "fusion/models/height.hpp"
 #include "fusion/models/position.hpp"
@@ -41,7 +42,7 @@ FuseParams parse_fuse_params(const YamlField& s) {
   FuseParams p;
   if (!s.defined()) return p;
   if (!s.is_map()) s.fail("expected a map of fuse parameters");
-  s.check_keys({"force_3d", "range_sigma_m", "gate_sigma", "tdoa_gate_sigma", "nlos_gate_sigma",
+  s.check_keys({"force_3d", "range_sigma_m", "gate_sigma", "tdoa_gate_sigma", "angle_gate_sigma", "nlos_gate_sigma",
                 "nlos_downweight_sigma", "accel_psd", "displacement", "gyro_turns", "displacement_sigma_per_m",
                 "displacement_sigma_min_m", "heading_bias_sigma_deg",
                 "heading_bias_walk_deg_per_sqrt_s", "start_sigma_m", "height_gate_sigma",
@@ -51,6 +52,7 @@ FuseParams parse_fuse_params(const YamlField& s) {
   p.range_sigma_m = s.get_double_in("range_sigma_m", p.range_sigma_m, 1e-4, 100);
   p.gate_sigma = s.get_double_in("gate_sigma", p.gate_sigma, 0.5, 1e6);
   p.tdoa_gate_sigma = s.get_double_in("tdoa_gate_sigma", p.tdoa_gate_sigma, 0.5, 1e6);
+  p.angle_gate_sigma = s.get_double_in("angle_gate_sigma", p.angle_gate_sigma, 0.5, 1e6);
   p.nlos_gate_sigma = s.get_double_in("nlos_gate_sigma", p.nlos_gate_sigma, 0.5, 1e6);
   p.nlos_downweight_sigma =
       s.get_double_in("nlos_downweight_sigma", p.nlos_downweight_sigma, 0.1, 1e6);
@@ -88,8 +90,10 @@ FuseParams parse_fuse_params(const YamlField& s) {
 FuseEstimator::FuseEstimator(PoseSink sink, std::string source_name)
     : sink_(std::move(sink)),
       source_(std::move(source_name)),
-      tdoa_([](const pose_t&) {}, [](const clock_t&) {}, source_) {
+      tdoa_([](const pose_t&) {}, [](const clock_t&) {}, source_),
+      aoa_([](const pose_t&) {}, source_) {
   tdoa_.set_epoch_sink([this](const uwb_tdoa::TdoaEpoch& e) { on_tdoa_epoch(e); }, false);
+  aoa_.set_epoch_sink([this](const aoa::AoaEpochAngles& e) { on_aoa_epoch(e); }, false);
 }
 
 void FuseEstimator::set_site(const Site& site) {
@@ -99,8 +103,12 @@ void FuseEstimator::set_site(const Site& site) {
   const YamlField twr = site.estimator_params("uwb_twr");
   if (!fuse["range_sigma_m"].defined() && twr["range_sigma_m"].defined())
     params.range_sigma_m = twr.get_double_in("range_sigma_m", params.range_sigma_m, 1e-4, 100);
-  // TDoA blinks: the clock synchronisation of ips-uwb-tdoa with its parameters.
+  // TDoA blinks: the clock synchronisation of ips-uwb-tdoa with its parameters; BLE angles:
+  // ips-aoa's calibration and grouping with its.
   tdoa_.set_site(site);
+  aoa_.set_site(site);
+  frames_.clear();
+  for (const Anchor& a : site.anchors) frames_.push_back(aoa::anchor_frame(a));
   params_ = params;
   site_ = site;
   tracks_.clear();
@@ -268,7 +276,8 @@ void FuseEstimator::apply(Track& t, Snapshot& s, const Measurement& m, bool live
       break;
     }
     case Measurement::Kind::kTdoa: {
-      const TdoaUpdate u = update_tdoa(f, m.tdoa, params_.tdoa_gate_sigma * params_.tdoa_gate_sigma);
+      const TdoaUpdate u = update_tdoa(f, std::get<TdoaArrivals>(m.group),
+                                       params_.tdoa_gate_sigma * params_.tdoa_gate_sigma);
       count_absolute(s, m.t, u.accepted, live);
       if (live) {
         (u.accepted ? stats_.tdoa_epochs_used : stats_.tdoa_epochs_rejected)++;
@@ -278,6 +287,39 @@ void FuseEstimator::apply(Track& t, Snapshot& s, const Measurement& m, bool live
           t.sources |= kSrcTdoa;
         }
       }
+      break;
+    }
+    case Measurement::Kind::kAngles: {
+      const Angles& a = std::get<Angles>(m.group);
+      bool any = false;
+      for (int i = 0; i < a.count; ++i) {
+        const aoa::AnchorFrame& frame = frames_[static_cast<size_t>(a.anchor[i])];
+        const aoa::BearingObservation& o = a.angle[i];
+        const double distance = (f.x.head<3>() - frame.position).norm();
+        for (int k = 0; k < (f.planar ? 1 : 2); ++k) {
+          const aoa::AngleKind kind = k == 0 ? aoa::AngleKind::kAzimuth : aoa::AngleKind::kElevation;
+          const double z = k == 0 ? o.azimuth_rad : o.elevation_rad;
+          const double sigma = k == 0 ? o.azimuth_sigma_rad : o.elevation_sigma_rad;
+          if (!std::isfinite(z)) continue;
+          const aoa::AngleUpdate u =
+              f.planar ? aoa::angle_update<2, kStateSize>(f.x, f.P, frame, f.x(2), kind, z, sigma,
+                                                           params_.angle_gate_sigma)
+                       : aoa::angle_update<3, kStateSize>(f.x, f.P, frame, 0.0, kind, z, sigma,
+                                                           params_.angle_gate_sigma);
+          if (!u.valid) continue;
+          any = any || u.accepted;
+          if (live) {
+            (u.accepted ? stats_.angles_used : stats_.angles_rejected)++;
+            if (u.accepted) {
+              t.tally.add(u.innovation_rad * distance);
+              t.sources |= kSrcAngles;
+            }
+          }
+        }
+      }
+      // Angles are weak next to ranges: they do not count as gated ranges do (a tag the ranges
+      // have lost is not found again by its bearings).
+      if (any) s.last_absolute = m.t;
       break;
     }
     case Measurement::Kind::kHeight: {
@@ -386,6 +428,7 @@ void FuseEstimator::maybe_publish(const std::string& tag_id, Track& t) {
     t.sources |= t.dr_bit;
   name(kSrcRange, "uwb_range");
   name(kSrcTdoa, "uwb_tdoa");
+  name(kSrcAngles, "ble_aoa");
   name(kSrcInsModule, "ins_module");
   name(kSrcPoseIns, "pose_ins");
   name(kSrcStep, "step");
@@ -473,13 +516,42 @@ void FuseEstimator::on_tdoa_epoch(const uwb_tdoa::TdoaEpoch& e) {
   m.kind = Measurement::Kind::kTdoa;
   m.t = e.utime;
   m.source = kSrcTdoa;
-  m.tdoa.count = std::min(e.count, kMaxTdoaArrivals);
-  for (int k = 0; k < m.tdoa.count; ++k) {
-    m.tdoa.anchor[k] = e.anchor[order[k]];
-    m.tdoa.range_m[k] = e.range_m[order[k]];
-    m.tdoa.var_m2[k] = e.var_m2[order[k]];
+  TdoaArrivals& a = m.group.emplace<TdoaArrivals>();
+  a.count = std::min(e.count, kMaxTdoaArrivals);
+  for (int k = 0; k < a.count; ++k) {
+    a.anchor[k] = e.anchor[order[k]];
+    a.range_m[k] = e.range_m[order[k]];
+    a.var_m2[k] = e.var_m2[order[k]];
   }
   t->tight_tdoa = true;
+  add(*e.tag_id, *t, m);
+}
+
+void FuseEstimator::on_aoa(const ble_aoa_t& m) {
+  if (!site_) {
+    ++stats_.messages_in;
+    ++stats_.dropped_no_site;
+    return;
+  }
+  aoa_.on_event(m);  // its epochs come back through on_aoa_epoch
+}
+
+void FuseEstimator::on_aoa_epoch(const aoa::AoaEpochAngles& e) {
+  Track* t = track_for(*e.tag_id, e.utime);
+  // Bearings alone start no track here (ips-aoa's fix, POSE_AOA, can).
+  if (!t || !t->initialised || e.picked->empty()) return;
+  Measurement m;
+  m.kind = Measurement::Kind::kAngles;
+  m.t = e.utime;
+  m.source = kSrcAngles;
+  Angles& a = m.group.emplace<Angles>();
+  for (size_t i = 0; i < e.picked->size() && a.count < kMaxAngles; ++i) {
+    a.anchor[a.count] = static_cast<int>((*e.picked)[i].anchor);
+    a.angle[a.count] = (*e.angles)[i];
+    a.angle[a.count].frame = nullptr;
+    ++a.count;
+  }
+  t->tight_aoa = true;
   add(*e.tag_id, *t, m);
 }
 
@@ -599,7 +671,7 @@ void FuseEstimator::on_pose(const pose_t& m, const std::string& kind) {
     ++stats_.dropped_invalid;
     return;
   }
-  if (kind == "tdoa" && t->tight_tdoa) {
+  if ((kind == "tdoa" && t->tight_tdoa) || (kind == "aoa" && t->tight_aoa)) {
     ++stats_.poses_superseded;
     return;
   }

@@ -10,6 +10,9 @@
 //  - UWB TDoA blinks (UWB_RX), tightly coupled (models/tdoa.hpp): ips-uwb-tdoa's clock
 //    synchronisation and blink grouping run inside, and each blink's differences update the
 //    filter; a tag with blinks no longer takes POSE_TDOA (the same information, filtered);
+//  - BLE angles of arrival (BLE_AOA), tightly coupled (ips-aoa's models/aoa_bearing.hpp):
+//    ips-aoa's calibration, epoch grouping and duplicate choice run inside, and each angle
+//    updates the filter; a tag with angles no longer takes POSE_AOA;
 //  - barometric heights (ALTITUDE, models/height.hpp);
 //  - other estimators' poses, loosely coupled (models/position.hpp; POSE_TDOA, POSE_AOA).
 // Every update is gated. Messages are fused in time order as they arrive; a late one (up to
@@ -22,6 +25,7 @@
 #include <deque>
 #include <functional>
 #include <ips/altitude_t.hpp>
+#include <ips/ble_aoa_t.hpp>
 #include <ips/imu_t.hpp>
 #include <ips/pose_t.hpp>
 #include <ips/step_t.hpp>
@@ -30,10 +34,12 @@
 #include <map>
 #include <optional>
 #include <string>
+#include <variant>
 #include <vector>
 
 #include "core/pose_tally.hpp"
 #include "core/site.hpp"
+#include "estimators/aoa/aoa_estimator.hpp"
 #include "estimators/uwb_tdoa/tdoa_estimator.hpp"
 #include "fusion/fuse_filter.hpp"
 #include "fusion/gyro_heading.hpp"
@@ -48,6 +54,7 @@ struct FuseParams {
   double range_sigma_m = 0.10;
   double gate_sigma = 4.0;
   double tdoa_gate_sigma = 4.0;
+  double angle_gate_sigma = 3.0;
   double nlos_gate_sigma = 2.5;
   double nlos_downweight_sigma = 1.5;
   double accel_psd = 0.5;         // constant-velocity process noise, (m/s^2)^2/Hz
@@ -80,7 +87,9 @@ struct FuseStats {
   int64_t tdoa_epochs_used = 0;
   int64_t tdoa_epochs_rejected = 0;
   int64_t tdoa_differences_used = 0;
-  int64_t poses_superseded = 0;      // POSE_TDOA of a tag whose blinks are fused tightly
+  int64_t angles_used = 0;
+  int64_t angles_rejected = 0;
+  int64_t poses_superseded = 0;  // POSE_TDOA / POSE_AOA of a tag whose blinks / angles are fused
   int64_t displacements_used = 0;
   int64_t imu_used = 0;
   int64_t heights_used = 0;
@@ -108,8 +117,14 @@ class FuseEstimator {
   bool has_site() const { return site_.has_value(); }
   void on_range(const uwb_range_t& m);
   void on_rx(const uwb_rx_t& m);  // UWB_RX: TDoA blinks and anchor syncs
-  // Fuses the blinks still waiting for more receptions (at the end of a log).
-  void flush() { tdoa_.flush(); }
+  void on_aoa(const ble_aoa_t& m);  // BLE_AOA
+  // Live: closes the angle epochs whose window ended by `now` (the bus went quiet).
+  void flush_angles(utime_t now) { aoa_.flush(now); }
+  // End of input: fuses the blinks still waiting for receptions and the open angle epochs.
+  void flush() {
+    tdoa_.flush();
+    aoa_.finish();
+  }
   void on_ins_module(const pose_t& m);  // INS_MODULE
   void on_pose_ins(const pose_t& m);    // POSE_INS
   void on_step(const step_t& m);        // STEP
@@ -123,6 +138,8 @@ class FuseEstimator {
   const FuseStats& stats() const { return stats_; }
   // The UWB_RX side: ips-uwb-tdoa's blink grouping and clock synchronisation counters.
   const uwb_tdoa::TdoaStats& tdoa_stats() const { return tdoa_.stats(); }
+  // The BLE_AOA side: ips-aoa's calibration and grouping counters.
+  const aoa::AoaStats& aoa_stats() const { return aoa_.stats(); }
   const FuseParams& params() const { return params_; }
   // The tag's current state, for tests.
   std::optional<FuseFilter> filter(const std::string& tag_id) const;
@@ -136,9 +153,17 @@ class FuseEstimator {
     kSrcAltitude = 16,
     kSrcPose = 32,
     kSrcTdoa = 64,
+    kSrcAngles = 128,
+  };
+  static constexpr int kMaxAngles = 8;  // anchors per advertisement
+  struct Angles {
+    int count = 0;
+    std::array<int, kMaxAngles> anchor{};  // site anchor index
+    std::array<aoa::BearingObservation, kMaxAngles> angle;  // frame pointers not kept
   };
   struct Measurement {
-    enum class Kind { kRange, kHeight, kPosition, kDisplacement, kTdoa } kind = Kind::kRange;
+    enum class Kind { kRange, kHeight, kPosition, kDisplacement, kTdoa, kAngles } kind =
+        Kind::kRange;
     utime_t t = 0;
     utime_t t0 = 0;  // displacement: the start of its interval
     int anchor = -1;
@@ -147,7 +172,7 @@ class FuseEstimator {
     Eigen::Vector3d vec = Eigen::Vector3d::Zero();  // position, or displacement
     Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
     bool horizontal_only = false;
-    TdoaArrivals tdoa;  // a blink's arrivals, nearest first
+    std::variant<std::monostate, TdoaArrivals, Angles> group;  // a blink's arrivals, or angles
     uint32_t source = 0;
     std::string pose_kind;
   };
@@ -172,6 +197,7 @@ class FuseEstimator {
     std::deque<Measurement> init_ranges;  // waiting for a multilateration start
     utime_t newest = 0;
     bool tight_tdoa = false;  // blinks fused: POSE_TDOA is not
+    bool tight_aoa = false;   // angles fused: POSE_AOA is not
     GyroHeading gyro;
     PoseTally tally;
     uint32_t sources = 0;  // contributed since the last pose
@@ -195,12 +221,15 @@ class FuseEstimator {
   void on_dead_reckoning(const pose_t& m, DisplacementSource src, uint32_t bit);
   bool accept_displacement(Track& t, DisplacementSource src);
   void on_tdoa_epoch(const uwb_tdoa::TdoaEpoch& e);
+  void on_aoa_epoch(const aoa::AoaEpochAngles& e);
 
   PoseSink sink_;
   std::string source_;
   std::optional<Site> site_;
   FuseParams params_;
   uwb_tdoa::TdoaEstimator tdoa_;  // clocks and blinks only (no tracker)
+  aoa::AoaEstimator aoa_;         // calibrated angles only (no tracker)
+  std::vector<aoa::AnchorFrame> frames_;  // per site anchor
   std::map<std::string, Track> tracks_;
   FuseStats stats_;
 };

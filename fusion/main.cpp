@@ -3,6 +3,8 @@
 // estimators' poses (fuse_estimator.hpp).
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
+
 #include "core/channels.hpp"
 #include "core/cli.hpp"
 #include "core/node.hpp"
@@ -16,13 +18,14 @@ constexpr const char* kProgram = "ips-fuse";
 int main(int argc, char** argv) {
   CLI::App app{
       "ips-fuse: hybrid per-tag fusion. One EKF per tag takes UWB two-way ranges (UWB_RANGE) "
-      "and TDoA blinks (UWB_RX, with ips-uwb-tdoa's clock synchronisation), both tightly "
-      "coupled; a dead-reckoning source's displacements as its motion (INS_MODULE, POSE_INS or "
+      "and TDoA blinks (UWB_RX, with ips-uwb-tdoa's clock synchronisation) and BLE angles of "
+      "arrival (BLE_AOA, with ips-aoa's calibration), tightly coupled; a dead-reckoning source's displacements as its motion (INS_MODULE, POSE_INS or "
       "STEP, with the source's heading bias estimated), the tag's gyro (IMU) turning it between "
-      "them; barometric heights (ALTITUDE); other estimators' poses (POSE_TDOA until blinks "
-      "come, POSE_AOA). Each update is gated, late messages are fused in time order; publishes "
+      "them; barometric heights (ALTITUDE); other estimators' poses (POSE_TDOA and POSE_AOA "
+      "until blinks and angles come). Each update is gated, late messages are fused in time order; publishes "
       "POSE_FUSED with covariance, its source naming what contributed. Parameters: the site's "
-      "estimators.fuse (and estimators.uwb_tdoa for the clocks).",
+      "estimators.fuse (and estimators.uwb_tdoa for the clocks, estimators.aoa for the "
+      "angles).",
       kProgram};
   ips::CommonOptions opts;
   ips::add_common_options(app, opts);
@@ -39,9 +42,13 @@ int main(int argc, char** argv) {
       const auto& x = est.tdoa_stats();
       const int64_t rx_drops = x.dropped_invalid + x.dropped_unknown_anchor + x.dropped_late +
                                x.dropped_duplicate + x.dropped_too_many_tags;
+      const auto& b = est.aoa_stats();
+      const int64_t aoa_drops = b.dropped_invalid + b.dropped_unknown_anchor +
+                                b.dropped_outside_calibration + b.dropped_late +
+                                b.dropped_too_many_tags;
       const int64_t drops = s.dropped_invalid + s.dropped_unknown_anchor + s.dropped_late +
                             s.dropped_no_site + s.dropped_too_many_tags + s.dropped_other_source +
-                            rx_drops;
+                            rx_drops + aoa_drops;
       if (drops == reported) return;
       node.counters().drops += drops - reported;
       reported = drops;
@@ -68,6 +75,23 @@ int main(int argc, char** argv) {
                                     est.on_rx(m);
                                     account();
                                   });
+    // An advertisement's angles are fused when its epoch closes: at the next event, or when the
+    // bus has been quiet for the epoch window (message time estimated from the host clock).
+    ips::utime_t last_aoa_utime = 0, last_aoa_host = 0;
+    node.subscribe<ips::ble_aoa_t>(opts.channel(ips::channel::kBleAoa),
+                                   [&](const ips::ble_aoa_t& m, const std::string&) {
+                                     if (ips::plausible_utime(m.utime) &&
+                                         m.utime > last_aoa_utime) {
+                                       last_aoa_utime = m.utime;
+                                       last_aoa_host = ips::wall_utime_now();
+                                     }
+                                     est.on_aoa(m);
+                                     account();
+                                   });
+    node.add_timer(0.02, [&] {
+      if (last_aoa_utime != 0)
+        est.flush_angles(last_aoa_utime + (ips::wall_utime_now() - last_aoa_host));
+    });
     node.subscribe<ips::imu_t>(opts.channel(ips::channel::kImu),
                                [&](const ips::imu_t& m, const std::string&) {
                                  est.on_imu(m);

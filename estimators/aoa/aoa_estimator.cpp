@@ -261,6 +261,11 @@ std::vector<BearingObservation> AoaEstimator::observations(
   return obs;
 }
 
+void AoaEstimator::set_epoch_sink(EpochSink sink, bool track) {
+  epoch_sink_ = std::move(sink);
+  track_ = track;
+}
+
 void AoaEstimator::on_epoch(Epoch& epoch) {
   ++stats_.epochs;
   auto it = tracks_.find(epoch.tag_id);
@@ -277,6 +282,11 @@ void AoaEstimator::on_epoch(Epoch& epoch) {
     return;
   }
   pick_angles(epoch, &t, picked_);
+  if (epoch_sink_) {
+    const std::vector<BearingObservation> angles = observations(picked_);
+    epoch_sink_({&epoch.tag_id, epoch.utime, &picked_, &angles});
+  }
+  if (!track_) return;
   if (params_.method == AoaMethod::kPerEpoch) {
     per_epoch(t, epoch.tag_id, epoch.utime, picked_);
     return;

@@ -96,10 +96,25 @@ struct AoaStats {
   int64_t poses_out = 0;
 };
 
+// One advertisement's angles after calibration and the duplicate policy, for a tightly coupled
+// filter (ips-fuse runs this class on BLE_AOA for them): `picked[i].anchor` indexes the site's
+// anchors, `angles[i]` holds its angles and their standard deviations.
+struct AoaEpochAngles {
+  const std::string* tag_id = nullptr;
+  utime_t utime = 0;
+  const std::vector<AoaEvent>* picked = nullptr;
+  const std::vector<BearingObservation>* angles = nullptr;
+};
+
 class AoaEstimator {
  public:
   using PoseSink = std::function<void(const pose_t&)>;
+  using EpochSink = std::function<void(const AoaEpochAngles&)>;
   explicit AoaEstimator(PoseSink sink, std::string source_name = "aoa");
+
+  // Every epoch's angles go to `sink` before the tracker sees them; with `track` false there is
+  // no tracker (no poses), only calibration, grouping and the choice among duplicates.
+  void set_epoch_sink(EpochSink sink, bool track);
 
   // Anchors, tag heights, parameters and calibration; resets all tracks. Throws ConfigError on
   // bad parameters (the estimator keeps its previous site then).
@@ -165,6 +180,8 @@ class AoaEstimator {
   void emit(Track& t, pose_t& p, utime_t utime);
 
   PoseSink sink_;
+  EpochSink epoch_sink_;
+  bool track_ = true;
   std::string source_;
   std::optional<Site> site_;
   AoaParams params_;

@@ -226,13 +226,14 @@ void ReplayHost::process(const std::string& channel, int64_t timestamp, const ui
     // ips-fuse hears a blink before the POSE_TDOA made of it, as on the bus.
     if (fuse_) fuse_->on_rx(m);
     if (tdoa_) tdoa_->on_rx(m);
-  } else if (aoa_ && channel == channels_.channel(channel::kBleAoa)) {
+  } else if ((aoa_ || fuse_) && channel == channels_.channel(channel::kBleAoa)) {
     ble_aoa_t m;
     if (!decode_message(m, data, size)) {
       ++stats_.undecodable;
       return;
     }
-    aoa_->on_event(m);
+    if (fuse_) fuse_->on_aoa(m);
+    if (aoa_) aoa_->on_event(m);
   } else if ((pdr_ || ins_ || fuse_) && channel == channels_.channel(channel::kImu)) {
     imu_t m;
     if (!decode_message(m, data, size)) {

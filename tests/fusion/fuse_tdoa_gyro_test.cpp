@@ -192,11 +192,22 @@ TEST(FuseEstimatorRx, BlinksBeforeASiteAreCountedAndPoseTdoaIsSupersededOnlyOnce
   rx.counter_hz = 63.8976e9;
   est.on_rx(rx);
   EXPECT_EQ(est.stats().dropped_no_site, 1);
+  ble_aoa_t aoa{};
+  aoa.utime = rx.utime;
+  aoa.anchor_id = "B1";
+  aoa.tag_id = "T1";
+  est.on_aoa(aoa);
+  EXPECT_EQ(est.stats().dropped_no_site, 2);
   // With a site: an anchor that is not a TDoA anchor of it is ips-uwb-tdoa's unknown anchor.
   est.set_site(sim::load_scenario("lab").site);
   rx.anchor_id = "A1";
   est.on_rx(rx);
   EXPECT_EQ(est.tdoa_stats().dropped_unknown_anchor, 1);
+  aoa.anchor_id = "A1";  // not a ble_aoa anchor
+  aoa.azimuth_deg = 10;
+  aoa.elevation_deg = 5;
+  est.on_aoa(aoa);
+  EXPECT_EQ(est.aoa_stats().dropped_unknown_anchor, 1);
   // No blinks fused yet: POSE_TDOA starts and updates the track.
   pose_t p{};
   p.utime = s_to_utime(1000.0);

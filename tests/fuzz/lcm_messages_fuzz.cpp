@@ -167,8 +167,9 @@ void feed_altitude(const uint8_t* data, size_t size) {
   est.finish();
 }
 // A mixed sequence into ips-fuse: [kind byte][length byte][message bytes]..., the kind picking
-// UWB_RANGE, UWB_RX, IMU, INS_MODULE, POSE_INS, STEP, ALTITUDE, POSE_TDOA or POSE_AOA. The site
-// has TWR and TDoA anchors and a tag with a start pose, so every path runs from the first byte.
+// UWB_RANGE, UWB_RX, IMU, INS_MODULE, POSE_INS, STEP, ALTITUDE, POSE_TDOA, POSE_AOA or BLE_AOA.
+// The site has TWR, TDoA and AoA anchors and a tag with a start pose, so every path runs from the
+// first byte.
 void feed_fuse(const uint8_t* data, size_t size) {
   static const ips::Site site = ips::parse_site_text(
       "name: lab\nanchors:\n"
@@ -177,6 +178,8 @@ void feed_fuse(const uint8_t* data, size_t size) {
       "  - {id: D1, kind: uwb_tdoa, position: [0.3, 0.3, 2.6]}\n"
       "  - {id: D2, kind: uwb_tdoa, position: [9.7, 0.3, 2.6]}\n"
       "  - {id: D3, kind: uwb_tdoa, position: [9.7, 7.7, 2.6]}\n"
+      "  - {id: B1, kind: ble_aoa, position: [5, 0, 2.2], orientation_deg: [0, 0, 90]}\n"
+      "  - {id: B2, kind: ble_aoa, position: [10, 4, 2.2], orientation_deg: [0, 0, 180]}\n"
       "tags:\n  - {id: T1, height_m: 1.2, start_position: [2, 1.5]}\n  - {id: T3}\n"
       "estimators:\n  fuse: {max_tags: 8}\n",
       "fuzz-fuse-site");
@@ -189,7 +192,7 @@ void feed_fuse(const uint8_t* data, size_t size) {
   est.set_site(site);
   size_t pos = 0;
   while (pos + 2 < size) {
-    const uint8_t kind = data[pos] % 9;
+    const uint8_t kind = data[pos] % 10;
     const size_t len = std::min<size_t>(data[pos + 1], size - pos - 2);
     const uint8_t* m = data + pos + 2;
     pos += 2 + len;
@@ -205,7 +208,8 @@ void feed_fuse(const uint8_t* data, size_t size) {
       case 5: feed(ips::step_t{}, [&](const ips::step_t& x) { est.on_step(x); }); break;
       case 6: feed(ips::altitude_t{}, [&](const ips::altitude_t& x) { est.on_altitude(x); }); break;
       case 7: feed(ips::pose_t{}, [&](const ips::pose_t& x) { est.on_pose(x, "tdoa"); }); break;
-      default: feed(ips::pose_t{}, [&](const ips::pose_t& x) { est.on_pose(x, "aoa"); }); break;
+      case 8: feed(ips::pose_t{}, [&](const ips::pose_t& x) { est.on_pose(x, "aoa"); }); break;
+      default: feed(ips::ble_aoa_t{}, [&](const ips::ble_aoa_t& x) { est.on_aoa(x); }); break;
     }
   }
   est.flush();

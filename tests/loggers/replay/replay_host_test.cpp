@@ -222,18 +222,20 @@ TEST(ReplayHost, HostsTheFuseEstimator) {
   EXPECT_LE(poses, 201);
 }
 
-// Hosted alone on `lab`, the fusion takes the log's UWB_RX blinks tightly: ips-uwb-tdoa's clocks
-// run inside it, and once they have locked nearly every pose has blinks in it (a pose names what
+// Hosted alone on `lab`, the fusion takes the log's UWB_RX blinks and BLE_AOA angles tightly:
+// ips-uwb-tdoa's clocks and ips-aoa's grouping run inside it; angles are in every pose, and once
+// the clocks have locked nearly every pose has blinks in it (a pose names what
 // came since the previous one: a 0.1 s window can miss the 10 Hz blink, 2 % are lost).
-TEST(ReplayHost, FuseTakesTheLogsBlinksTightly) {
+TEST(ReplayHost, FuseTakesTheLogsBlinksAndAnglesTightly) {
   ReplayOptions ro;
   ro.only = {"fuse"};
   const auto out = replay(ro, 10);
-  int fused = 0, tight = 0, first_tight = -1;
+  int fused = 0, tight = 0, first_tight = -1, angles = 0;
   for (const auto& o : out) {
     if (o.channel != "POSE_FUSED") continue;
     pose_t p;
     ASSERT_GT(p.decode(o.data.data(), 0, static_cast<int>(o.data.size())), 0);
+    if (p.source.find("ble_aoa") != std::string::npos) ++angles;
     if (p.source.find("uwb_tdoa") != std::string::npos) {
       ++tight;
       if (first_tight < 0) first_tight = fused;
@@ -247,6 +249,7 @@ TEST(ReplayHost, FuseTakesTheLogsBlinksTightly) {
   ASSERT_GE(first_tight, 0);
   EXPECT_LT(first_tight, 60);
   EXPECT_GE(tight, 0.85 * (fused - first_tight));
+  EXPECT_GE(angles, 0.85 * fused);
 }
 
 // With every estimator hosted, the fusion reads the regenerated POSE_TDOA, ALTITUDE, ... (the
