@@ -491,13 +491,15 @@ void FuseEstimator::on_range(const uwb_range_t& m) {
   add(m.tag_id, *t, r);
 }
 
+bool FuseEstimator::have_site_for_raw() {
+  if (site_) return true;
+  ++stats_.messages_in;
+  ++stats_.dropped_no_site;
+  return false;
+}
+
 void FuseEstimator::on_rx(const uwb_rx_t& m) {
-  if (!site_) {
-    ++stats_.messages_in;
-    ++stats_.dropped_no_site;
-    return;
-  }
-  tdoa_.on_rx(m);  // its blinks come back through on_tdoa_epoch
+  if (have_site_for_raw()) tdoa_.on_rx(m);  // its blinks come back through on_tdoa_epoch
 }
 
 void FuseEstimator::on_tdoa_epoch(const uwb_tdoa::TdoaEpoch& e) {
@@ -528,12 +530,7 @@ void FuseEstimator::on_tdoa_epoch(const uwb_tdoa::TdoaEpoch& e) {
 }
 
 void FuseEstimator::on_aoa(const ble_aoa_t& m) {
-  if (!site_) {
-    ++stats_.messages_in;
-    ++stats_.dropped_no_site;
-    return;
-  }
-  aoa_.on_event(m);  // its epochs come back through on_aoa_epoch
+  if (have_site_for_raw()) aoa_.on_event(m);  // its epochs come back through on_aoa_epoch
 }
 
 void FuseEstimator::on_aoa_epoch(const aoa::AoaEpochAngles& e) {

@@ -220,6 +220,8 @@ class FuseEstimator {
   void maybe_publish(const std::string& tag_id, Track& t);
   void on_dead_reckoning(const pose_t& m, DisplacementSource src, uint32_t bit);
   bool accept_displacement(Track& t, DisplacementSource src);
+  // UWB_RX and BLE_AOA go through the hosted estimators, which need the site: counted when none.
+  bool have_site_for_raw();
   void on_tdoa_epoch(const uwb_tdoa::TdoaEpoch& e);
   void on_aoa_epoch(const aoa::AoaEpochAngles& e);
 
