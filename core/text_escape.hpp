@@ -42,4 +42,34 @@ inline std::string json_quote(std::string_view s) {
   return out + "\"";
 }
 
+// Untrusted text for XML/HTML character data and attribute values (ips-eval's report, ips-view's
+// map): bytes outside printable ASCII as \xNN (printable()), then & < > " ' as character
+// references.
+inline std::string xml_text(std::string_view s) {
+  std::string out;
+  out.reserve(s.size());
+  for (char c : printable(s)) {
+    switch (c) {
+      case '&':
+        out += "&amp;";
+        break;
+      case '<':
+        out += "&lt;";
+        break;
+      case '>':
+        out += "&gt;";
+        break;
+      case '"':
+        out += "&quot;";
+        break;
+      case '\'':
+        out += "&#39;";
+        break;
+      default:
+        out += c;
+    }
+  }
+  return out;
+}
+
 }  // namespace ips

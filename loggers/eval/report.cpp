@@ -423,33 +423,6 @@ std::string stats_table(const ReportInput& in) {
 
 }  // namespace
 
-std::string xml_text(std::string_view s) {
-  std::string out;
-  out.reserve(s.size());
-  for (char c : printable(s)) {
-    switch (c) {
-      case '&':
-        out += "&amp;";
-        break;
-      case '<':
-        out += "&lt;";
-        break;
-      case '>':
-        out += "&gt;";
-        break;
-      case '"':
-        out += "&quot;";
-        break;
-      case '\'':
-        out += "&#39;";
-        break;
-      default:
-        out += c;
-    }
-  }
-  return out;
-}
-
 std::string svg_document(const std::string& svg_element) {
   return "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n" + svg_element + "\n";
 }

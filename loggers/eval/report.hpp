@@ -14,12 +14,16 @@
 #include <map>
 #include <optional>
 #include <string>
+
+#include "core/text_escape.hpp"
 #include <string_view>
 #include <vector>
 
 #include "loggers/eval/evaluation.hpp"
 
 namespace ips::eval {
+
+using ips::xml_text;
 
 struct ReportAnchor {
   std::string id;
@@ -61,9 +65,6 @@ std::string svg_document(const std::string& svg_element);
 
 // ---- Building blocks (exposed for tests) ----
 
-// Untrusted text for XML/HTML character data and attribute values: bytes outside printable ASCII
-// as \xNN (like the text table), then & < > " ' as character references.
-std::string xml_text(std::string_view s);
 
 struct Point {
   double x, y;

@@ -1,0 +1,204 @@
+#pragma once
+// What ips-view shows: the site's anchors, per (channel, tag) the latest position estimate with
+// its horizontal covariance and a bounded trail, a channel table in the spirit of lcm-spy
+// (messages, Hz, age, bytes per second) and the HEALTH of every process. Pure: fed decoded
+// messages with the channel they came on and the host time they arrived, returns values (the
+// live page's JSON here, the floor map in svg_render.hpp); main.cpp owns the clock and sockets.
+//
+// Everything here came off an unauthenticated bus: the number of tracks, channels, processes and
+// anchors is bounded, ids longer than ViewOptions::max_id_bytes are dropped, free text (sources,
+// last_error) is truncated, and all of it is counted in ViewStats instead of thrown. Strings are
+// escaped where they leave (json_string() here, xml_text() in svg_render.hpp), never on entry.
+#include <Eigen/Core>
+#include <cstddef>
+#include <cstdint>
+#include <ips/health_t.hpp>
+#include <ips/pose_t.hpp>
+#include <ips/site_t.hpp>
+#include <limits>
+#include <map>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <tuple>
+#include <utility>
+#include <vector>
+
+#include "core/site.hpp"
+#include "core/time.hpp"
+
+namespace ips::view {
+
+struct ViewOptions {
+  size_t trail_length = 200;   // positions kept per (channel, tag); 0: no trail
+  size_t max_tracks = 512;     // (channel, tag) pairs
+  size_t max_channels = 128;   // rows of the channel table
+  size_t max_processes = 128;  // (source, host, pid) keys of HEALTH
+  size_t max_anchors = 1000;   // a SITE with more is refused (counted as a bad site)
+  // Tag ids, channel names and HEALTH sources and hosts longer than this are dropped (they are
+  // keys); a pose's source is cut to this length, last_error and site errors to max_error_bytes.
+  size_t max_id_bytes = 128;
+  size_t max_error_bytes = 512;
+  double rate_window_s = 5.0;  // the channel table's Hz and bytes/s are over this window
+  size_t rate_samples = 512;   // arrivals remembered per channel (at a higher rate the window
+                               // is effectively shorter; the rate stays right)
+  // When a table is full, a new key takes the place of the entry silent longest if it has been
+  // silent this long (host time); otherwise the new key is dropped and counted.
+  double expire_s = 60.0;
+};
+
+struct ViewStats {
+  int64_t sites_in = 0;
+  int64_t bad_sites = 0;  // site_yaml that does not parse, or too many anchors
+  int64_t poses_in = 0;
+  int64_t non_finite_positions = 0;  // x or y NaN/inf: not stored
+  int64_t health_in = 0;
+  int64_t bytes_messages_in = 0;  // on_bytes calls
+  int64_t dropped_long_ids = 0;   // a key (tag id, channel, source, host) over max_id_bytes
+  int64_t dropped_too_many_tracks = 0;
+  int64_t dropped_too_many_channels = 0;
+  int64_t dropped_too_many_processes = 0;
+  int64_t expired = 0;  // entries that gave way to a new key (see ViewOptions::expire_s)
+};
+
+// The last N horizontal positions of a track, in a ring allocated once.
+class Trail {
+ public:
+  Trail() = default;
+  explicit Trail(size_t capacity) : ring_(capacity) {}
+  void push(const Eigen::Vector2d& p);
+  size_t size() const { return size_; }
+  size_t capacity() const { return ring_.size(); }
+  // Oldest first.
+  std::vector<Eigen::Vector2d> points() const;
+
+ private:
+  std::vector<Eigen::Vector2d> ring_;
+  size_t next_ = 0;
+  size_t size_ = 0;
+};
+
+// The latest estimate of one tag on one channel.
+struct Track {
+  std::string channel;
+  std::string tag;
+  std::string source;                                  // the latest pose's, cut to max_id_bytes
+  utime_t utime = 0;                                   // the pose's own time
+  utime_t host_utime = 0;                              // when it arrived
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();  // m, site frame; z may be NaN
+  Eigen::Matrix2d cov_xy = Eigen::Matrix2d::Constant(std::numeric_limits<double>::quiet_NaN());
+  double heading_rad = std::numeric_limits<double>::quiet_NaN();
+  int32_t status = 0;  // pose_t::STATUS_* bits
+  int64_t count = 0;   // poses stored
+  int64_t non_finite = 0;
+  Trail trail;
+};
+
+// One row of the channel table at a given host time.
+struct ChannelRow {
+  std::string channel;
+  int64_t count = 0;
+  int64_t bytes = 0;
+  // Over the arrivals within rate_window_s before `now`: k >= 2 of them give (k - 1) / their
+  // span (the mean spacing, so 10 messages 0.1 s apart are 10 Hz); one gives 1 / window; none, 0.
+  double rate_hz = 0;
+  double bytes_per_s = 0;  // rate_hz times the mean size over the same arrivals
+  double age_s = 0;        // since the last message
+};
+
+// One process's latest HEALTH.
+struct Process {
+  health_t health;  // last_error cut to max_error_bytes
+  utime_t host_utime = 0;
+};
+
+// HEALTH state names as the page shows them ("ok", "degraded", "error", "starting", else
+// "unknown").
+const char* health_state_name(int8_t state);
+// pose_t::STATUS_* bits as names ("ok", "initialising", "coasting", "2d", "reinitialised").
+std::vector<std::string> status_names(int32_t status);
+
+// The n-sigma ellipse of a horizontal covariance: semi-axes n * sqrt(eigenvalue) (the closed-form
+// eigen-decomposition of the symmetric 2x2 matrix), the major axis at angle_rad from +x
+// counter-clockwise, in (-pi/2, pi/2]. For n = 2 it holds 86.5 % of a 2-D Gaussian.
+struct Ellipse {
+  double semi_major_m = 0;
+  double semi_minor_m = 0;
+  double angle_rad = 0;
+};
+// None when the covariance is not finite or not positive definite.
+std::optional<Ellipse> covariance_ellipse(const Eigen::Matrix2d& cov, double n_sigma);
+
+// A JSON string literal (quotes included) safe to embed in HTML: quote and backslash escaped,
+// control characters and DEL as \u00XX, < > & as \u003c \u003e \u0026 (so "</script>" cannot
+// close a script element), U+2028/U+2029 escaped, and bytes that are not valid UTF-8 as \ufffd.
+std::string json_string(std::string_view s);
+// A JSON number (up to 10 significant digits), null when not finite.
+std::string json_number(double v);
+
+// One colour per pose channel: a fixed colour for each default channel name (TRUTH black), the
+// rest of the palette for other channels in sorted order. Used by the SVG and the live page.
+std::map<std::string, std::string> channel_colours(const std::vector<std::string>& channels);
+
+class ViewModel {
+ public:
+  using TrackKey = std::pair<std::string, std::string>;              // channel, tag
+  using ProcessKey = std::tuple<std::string, std::string, int32_t>;  // source, host, pid
+
+  explicit ViewModel(ViewOptions options = {});
+
+  // A site whose site_yaml does not parse (or with more than max_anchors anchors) is counted and
+  // its error kept; the previous site stays.
+  void on_site(const site_t& msg, utime_t host_utime);
+  // Any pose channel: TRUTH, POSE_*, INS_MODULE, or any other name.
+  void on_pose(const std::string& channel, const pose_t& msg, utime_t host_utime);
+  void on_health(const health_t& msg, utime_t host_utime);
+  // Every message of every channel, for the channel table.
+  void on_bytes(const std::string& channel, size_t bytes, utime_t host_utime);
+
+  // The live page's snapshot: site, anchors (in the site's order), tracks, channels, processes
+  // (each sorted by its key) and stats; ages in seconds before `now` (host time).
+  std::string json(utime_t now) const;
+
+  const ViewOptions& options() const { return options_; }
+  const ViewStats& stats() const { return stats_; }
+  bool has_site() const { return has_site_; }
+  const std::string& site_name() const { return site_name_; }
+  const std::vector<Anchor>& anchors() const { return anchors_; }
+  const std::string& last_site_error() const { return last_site_error_; }
+  const std::map<TrackKey, Track>& tracks() const { return tracks_; }
+  const std::map<ProcessKey, Process>& processes() const { return processes_; }
+  std::vector<ChannelRow> channel_table(utime_t now) const;
+  // The distinct channels that carry tracks, sorted.
+  std::vector<std::string> pose_channels() const;
+
+ private:
+  struct Arrival {
+    utime_t host_utime;
+    size_t bytes;
+  };
+  struct ChannelMeter {
+    std::vector<Arrival> ring;
+    size_t next = 0;
+    size_t size = 0;
+    int64_t count = 0;
+    int64_t bytes = 0;
+    utime_t last_host_utime = 0;
+  };
+
+  ChannelRow row(const std::string& channel, const ChannelMeter& m, utime_t now) const;
+
+  ViewOptions options_;
+  ViewStats stats_;
+  bool has_site_ = false;
+  std::string site_name_;
+  std::string site_source_;
+  utime_t site_host_utime_ = 0;
+  std::vector<Anchor> anchors_;
+  std::string last_site_error_;
+  std::map<TrackKey, Track> tracks_;
+  std::map<std::string, ChannelMeter> channels_;
+  std::map<ProcessKey, Process> processes_;
+};
+
+}  // namespace ips::view
