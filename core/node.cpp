@@ -73,7 +73,6 @@ void Node::publish_raw(const std::string& channel, const void* data, size_t size
 }
 
 void Node::subscribe_raw(const std::string& channel, RawHandler handler) {
-  // Every message that reaches us is counted, decodable or not.
   // Every message that reaches us is counted, decodable or not. An exception from a handler
   // must not unwind through liblcm's C dispatch: it is counted and reported instead.
   handlers_.push_back([this, h = std::move(handler)](const lcm::ReceiveBuffer* rbuf,

@@ -1,7 +1,8 @@
 // ips-phone-imu: phones streaming their inertial sensors -> imu_t on IMU, phone time mapped to
 // host time. Live: UDP datagrams of CSV rows (IMU+GPS-Stream, HyperIMU; csv_row.hpp) and/or HTTP
-// POSTs of Sensor Logger JSON batches (sensor_logger_json.hpp, http_server.hpp). --file imports a
-// recorded file of semicolon-separated rows with ms times onto the bus or into a log (--out).
+// POSTs of Sensor Logger JSON batches (sensor_logger_json.hpp, core/http_server.hpp). --file
+// imports a recorded file of semicolon-separated rows with ms times onto the bus or into a log
+// (--out).
 // Apps, settings, formats, time mapping: docs/hardware/phone.md.
 #include <spdlog/spdlog.h>
 #include <sys/stat.h>
@@ -21,6 +22,7 @@
 #include "core/channels.hpp"
 #include "core/cli.hpp"
 #include "core/device_text.hpp"
+#include "core/http_server.hpp"
 #include "core/lcm_url.hpp"
 #include "core/line_buffer.hpp"
 #include "core/node.hpp"
@@ -30,7 +32,6 @@
 #include "core/text_escape.hpp"
 #include "drivers/phone_imu/csv_row.hpp"
 #include "core/error_limiter.hpp"
-#include "drivers/phone_imu/http_server.hpp"
 #include "drivers/phone_imu/phone_streams.hpp"
 #include "drivers/phone_imu/sensor_logger_json.hpp"
 
@@ -38,6 +39,10 @@ namespace {
 
 using namespace ips::phone_imu;
 using ips::ErrorLimiter;
+using ips::http::HttpReply;
+using ips::http::HttpRequest;
+using ips::http::HttpServer;
+using ips::http::HttpServerOptions;
 
 constexpr const char* kProgram = "ips-phone-imu";
 constexpr int64_t kFileReasonsLogged = 20;
@@ -68,6 +73,7 @@ struct Settings {
   int udp_port = 0, http_port = 0;
   size_t max_datagram_bytes = 4096;
   HttpServerOptions http;
+  std::string http_path = "/data";
 };
 
 // --- live: UDP and HTTP ----------------------------------------------------------------------
@@ -129,7 +135,8 @@ class Live {
     JsonBatch b = parse_sensor_logger_batch(r.body, s_.json_names);
     if (!b.ok) {
       bad("json", "refused POST from " + peer + ": " + b.reason);
-      return {400, "{\"status\":\"error\",\"reason\":" + ips::json_quote(b.reason) + "}"};
+      return {400, "application/json",
+              "{\"status\":\"error\",\"reason\":" + ips::json_quote(b.reason) + "}", {}};
     }
     if (b.bad_entries > 0)
       bad("json", "skipped payload entries from " + peer + ": " + b.first_bad, b.bad_entries);
@@ -138,8 +145,10 @@ class Live {
                                                               : peer;
     const int64_t accepted = static_cast<int64_t>(b.samples.size());
     publish_batch(device, host_us, b.samples);
-    return {200, "{\"status\":\"ok\",\"accepted\":" + std::to_string(accepted) +
-                     ",\"rejected\":" + std::to_string(b.bad_entries) + "}"};
+    return {200, "application/json",
+            "{\"status\":\"ok\",\"accepted\":" + std::to_string(accepted) +
+                ",\"rejected\":" + std::to_string(b.bad_entries) + "}",
+            {}};
   }
 
   void on_refused(int status, const std::string& reason, const std::string& peer) {
@@ -197,17 +206,19 @@ int run_live(const ips::CommonOptions& opts, Settings& s) {
     http = std::make_unique<HttpServer>(
         node, s.http,
         HttpServer::Callbacks{
-            .on_post = [&](const HttpRequest& r, const std::string& peer,
-                           ips::utime_t t) { return live.on_post(r, peer, t); },
             .on_refused = [&](int status, const std::string& reason,
                               const std::string& peer) { live.on_refused(status, reason, peer); },
         });
+    http->route("POST", s.http_path,
+                [&](const HttpRequest& r, const std::string& peer, ips::utime_t t) {
+                  return live.on_post(r, peer, t);
+                });
     if (!http->open(error)) {
       ips::print_fatal(kProgram, "--http-port: " + error);
       return 1;
     }
     spdlog::info("{}: Sensor Logger HTTP push on http://{}:{}{}", kProgram, s.http_bind,
-                 http->bound_port(), s.http.path);
+                 http->bound_port(), s.http_path);
   }
   const int rc = node.run();
   http.reset();
@@ -407,7 +418,7 @@ int main(int argc, char** argv) {
                                      "on the Wi-Fi)")
                           ->capture_default_str()
                           ->type_name("ADDR");
-  auto* o_path = app.add_option("--http-path", s.http.path, "the path the app POSTs to")
+  auto* o_path = app.add_option("--http-path", s.http_path, "the path the app POSTs to")
                      ->capture_default_str();
   auto* o_body = app.add_option("--max-body-bytes", s.http.limits.max_body_bytes,
                                 "larger POST bodies are refused with 413")
@@ -530,9 +541,9 @@ int main(int argc, char** argv) {
     if (!valid_ipv4(addr))
       return usage_error(std::string(name) + ": '" + ips::printable(addr) +
                          "' is not an IPv4 address (e.g. 127.0.0.1 or 0.0.0.0)");
-  if (s.http.path.empty() || s.http.path[0] != '/' || !ips::printable_ascii(s.http.path) ||
-      s.http.path.find_first_of(" ?#") != std::string::npos)
-    return usage_error("--http-path: '" + ips::printable(s.http.path) +
+  if (s.http_path.empty() || s.http_path[0] != '/' || !ips::printable_ascii(s.http_path) ||
+      s.http_path.find_first_of(" ?#") != std::string::npos)
+    return usage_error("--http-path: '" + ips::printable(s.http_path) +
                        "' is not a path such as /data");
   if (o_start->count() > 0 && !(start_s > 0 && start_s < 4e12))
     return usage_error("--file-start-s: not a Unix time in seconds");

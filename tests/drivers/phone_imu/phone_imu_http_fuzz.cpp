@@ -10,11 +10,13 @@
 #include <string>
 #include <string_view>
 
-#include "drivers/phone_imu/http_request.hpp"
+#include "core/http_request.hpp"
 #include "drivers/phone_imu/sensor_logger_json.hpp"
 
 namespace {
 using namespace ips::phone_imu;
+using ips::http::HttpLimits;
+using ips::http::HttpRequestParser;
 void check(bool ok, const char* what) {
   if (!ok) throw std::logic_error(what);
 }

@@ -1,10 +1,9 @@
-# ips-phone-imu: the row, JSON and HTTP request parsers, the clock offset, the assembler, fuzzing,
-# and the program end to end (UDP + HTTP in a private network namespace), a file import and its
+# ips-phone-imu: the row and JSON parsers, the clock offset, the assembler, fuzzing (with the HTTP
+# request parser of core/, tested in tests/core/), and the program end to end (UDP + HTTP in a private network namespace), a file import and its
 # start-up errors. Paths relative to tests/.
 ips_unit_test(phone_imu_test
   drivers/phone_imu/csv_row_test.cpp
   drivers/phone_imu/sensor_logger_json_test.cpp
-  drivers/phone_imu/http_request_test.cpp
   drivers/phone_imu/clock_offset_test.cpp
   drivers/phone_imu/imu_assembler_test.cpp
 )

@@ -1,10 +1,10 @@
-// HTTP requests as the apps send them (drivers/phone_imu/http_request.hpp): whole, byte by byte,
+// HTTP requests as the apps and browsers send them (core/http_request.hpp): whole, byte by byte,
 // pipelined, and every refusal with its status.
-#include "drivers/phone_imu/http_request.hpp"
+#include "core/http_request.hpp"
 
 #include <gtest/gtest.h>
 
-namespace ips::phone_imu {
+namespace ips::http {
 namespace {
 
 using State = HttpRequestParser::State;
@@ -19,6 +19,7 @@ TEST(HttpRequest, ParsesAPostWhole) {
   ASSERT_EQ(p.state(), State::kRequest);
   EXPECT_EQ(p.request().method, "POST");
   EXPECT_EQ(p.request().target, "/data");
+  EXPECT_EQ(p.request().query, "x=1");
   EXPECT_EQ(p.request().body, "{\"payload\":[]");
   EXPECT_TRUE(p.request().keep_alive);
 }
@@ -40,6 +41,23 @@ TEST(HttpRequest, ParsesByteByByteAndPipelined) {
   EXPECT_EQ(p.request().body, "abc");
   EXPECT_FALSE(p.request().keep_alive);  // HTTP/1.0 without keep-alive
   EXPECT_EQ(i, all.size());
+}
+
+TEST(HttpRequest, SplitsTheQueryOffTheTarget) {
+  const std::tuple<std::string, const char*, const char*> cases[] = {
+      {"GET /api/state?trails=0&x=1 HTTP/1.1\r\n\r\n", "/api/state", "trails=0&x=1"},
+      {"GET /api/state?a=%20b#top HTTP/1.1\r\n\r\n", "/api/state", "a=%20b"},
+      {"GET /p? HTTP/1.1\r\n\r\n", "/p", ""},
+      {"GET /p#a?b HTTP/1.1\r\n\r\n", "/p", ""},
+      {"GET http://host:80/p?q=1 HTTP/1.1\r\n\r\n", "/p", "q=1"},
+  };
+  for (const auto& [text, target, query] : cases) {
+    HttpRequestParser p;
+    p.feed(text);
+    ASSERT_EQ(p.state(), State::kRequest) << text;
+    EXPECT_EQ(p.request().target, target) << text;
+    EXPECT_EQ(p.request().query, query) << text;
+  }
 }
 
 TEST(HttpRequest, ConnectionHeadersAndContinue) {
@@ -114,11 +132,14 @@ TEST(HttpRequest, Responses) {
   EXPECT_EQ(http_response(200, "application/json", "{}", true),
             "HTTP/1.1 200 OK\r\nContent-Type: application/json\r\nContent-Length: 2\r\n"
             "Connection: keep-alive\r\n\r\n{}");
-  EXPECT_EQ(http_response(405, "text/plain", "", false),
+  EXPECT_EQ(http_response(405, "text/plain", "", false, "Allow: POST\r\n"),
             "HTTP/1.1 405 Method Not Allowed\r\nContent-Type: text/plain\r\nContent-Length: 0\r\n"
             "Allow: POST\r\nConnection: close\r\n\r\n");
+  // RFC 9110 section 15.3.5: a 204 has no content, and no Content-Length.
+  EXPECT_EQ(http_response(204, "text/plain", "ignored", true),
+            "HTTP/1.1 204 No Content\r\nContent-Type: text/plain\r\nConnection: keep-alive\r\n\r\n");
   EXPECT_STREQ(http_status_text(413), "Content Too Large");
 }
 
 }  // namespace
-}  // namespace ips::phone_imu
+}  // namespace ips::http

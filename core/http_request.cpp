@@ -1,4 +1,4 @@
-#include "drivers/phone_imu/http_request.hpp"
+#include "core/http_request.hpp"
 
 #include <algorithm>
 #include <cctype>
@@ -6,7 +6,7 @@
 
 #include "core/device_text.hpp"
 
-namespace ips::phone_imu {
+namespace ips::http {
 
 namespace {
 
@@ -143,10 +143,16 @@ bool HttpRequestParser::parse_head() {
     fail(400, "bad request target " + quoted_field(target));
     return false;
   }
-  const size_t q = target.find_first_of("?#");
-  if (q != std::string_view::npos) target = target.substr(0, q);
+  std::string_view query;
+  if (const size_t hash = target.find('#'); hash != std::string_view::npos)
+    target = target.substr(0, hash);
+  if (const size_t q = target.find('?'); q != std::string_view::npos) {
+    query = target.substr(q + 1);
+    target = target.substr(0, q);
+  }
   request_.method = std::string(method);
   request_.target = std::string(target);
+  request_.query = std::string(query);
   request_.keep_alive = version == "HTTP/1.1";
   bool has_length = false;
   for (size_t i = 1; i < lines.size(); ++i) {
@@ -209,6 +215,8 @@ const char* http_status_text(int status) {
   switch (status) {
     case 100: return "Continue";
     case 200: return "OK";
+    case 204: return "No Content";
+    case 304: return "Not Modified";
     case 400: return "Bad Request";
     case 404: return "Not Found";
     case 405: return "Method Not Allowed";
@@ -217,6 +225,7 @@ const char* http_status_text(int status) {
     case 413: return "Content Too Large";
     case 417: return "Expectation Failed";
     case 431: return "Request Header Fields Too Large";
+    case 500: return "Internal Server Error";
     case 501: return "Not Implemented";
     case 503: return "Service Unavailable";
     case 505: return "HTTP Version Not Supported";
@@ -225,14 +234,18 @@ const char* http_status_text(int status) {
 }
 
 std::string http_response(int status, std::string_view content_type, std::string_view body,
-                          bool keep_alive) {
+                          bool keep_alive, std::string_view extra_headers) {
+  const bool no_body = status == 204 || status == 304;
   std::string r = "HTTP/1.1 " + std::to_string(status) + " " + http_status_text(status) + "\r\n";
-  r += "Content-Type: " + std::string(content_type) + "\r\n";
-  r += "Content-Length: " + std::to_string(body.size()) + "\r\n";
-  if (status == 405) r += "Allow: POST\r\n";
+  r.reserve(r.size() + 120 + extra_headers.size() + (no_body ? 0 : body.size()));
+  r += "Content-Type: ";
+  r += content_type;
+  r += "\r\n";
+  if (!no_body) r += "Content-Length: " + std::to_string(body.size()) + "\r\n";
+  r += extra_headers;
   r += keep_alive ? "Connection: keep-alive\r\n\r\n" : "Connection: close\r\n\r\n";
-  r += body;
+  if (!no_body) r += body;
   return r;
 }
 
-}  // namespace ips::phone_imu
+}  // namespace ips::http

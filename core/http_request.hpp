@@ -1,5 +1,6 @@
 #pragma once
-// The HTTP/1.1 requests the phone apps send (RFC 9112), read incrementally from one connection
+// HTTP/1.1 requests (RFC 9112) as phone apps and browsers send them, read incrementally from one
+// connection
 // with bounded memory: a request head of at most max_head_bytes, a body (Content-Length only)
 // of at most max_body_bytes; anything beyond is refused with the status to answer (400, 413,
 // 431, 501, 505) and a reason, and the connection is then closed. Keep-alive: a request that
@@ -10,7 +11,7 @@
 #include <string>
 #include <string_view>
 
-namespace ips::phone_imu {
+namespace ips::http {
 
 struct HttpLimits {
   size_t max_head_bytes = 8192;
@@ -19,7 +20,8 @@ struct HttpLimits {
 
 struct HttpRequest {
   std::string method;  // "POST", "GET", ...
-  std::string target;  // "/data" (the query, if any, removed)
+  std::string target;  // "/data": the path, without the query or a fragment
+  std::string query;   // "trails=0&x=1": what followed '?' (up to a '#'), still percent-encoded
   std::string body;
   bool keep_alive = true;
 };
@@ -67,10 +69,11 @@ class HttpRequestParser {
   std::string error_reason_;
 };
 
-// "HTTP/1.1 <status> <text>" with Content-Type text/plain or application/json, Content-Length,
-// Connection keep-alive/close, and the body.
+// "HTTP/1.1 <status> <text>" with Content-Type, Content-Length, `extra_headers` (whole lines,
+// each ending "\r\n", e.g. "Allow: POST\r\n"), Connection keep-alive/close, and the body. A 204 or
+// 304 has neither Content-Length nor body (RFC 9110 sections 8.6, 15.3.5, 15.4.5).
 std::string http_response(int status, std::string_view content_type, std::string_view body,
-                          bool keep_alive);
+                          bool keep_alive, std::string_view extra_headers = {});
 const char* http_status_text(int status);
 
-}  // namespace ips::phone_imu
+}  // namespace ips::http

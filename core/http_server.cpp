@@ -1,0 +1,445 @@
+#include "core/http_server.hpp"
+
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
+#include <set>
+#include <vector>
+
+#include "core/node.hpp"
+#include "core/text_escape.hpp"
+
+namespace ips::http {
+
+namespace {
+constexpr size_t kReadChunk = 16384;
+// Reads per readiness event: a client that never stops sending still lets the loop go round.
+constexpr int kMaxReadsPerEvent = 4;
+// A connection's output buffer keeps up to this much capacity between responses.
+constexpr size_t kKeptOutputCapacity = 65536;
+constexpr const char* kStreamHead =
+    "HTTP/1.1 200 OK\r\nContent-Type: text/event-stream\r\nCache-Control: no-store\r\n";
+
+std::string error_body(std::string_view reason) {
+  return "{\"status\":\"error\",\"reason\":" + json_quote(reason) + "}";
+}
+
+bool would_block(int e) { return e == EAGAIN || e == EWOULDBLOCK || e == EINTR; }
+
+std::string seconds_text(double s) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%g s", s);
+  return text;
+}
+
+// One event in the text/event-stream format (WHATWG HTML section 9.2.6): a field line per line of
+// data, split where the client would split it (CR, LF or CRLF), and a blank line to dispatch.
+std::string event_text(std::string_view name, std::string_view data) {
+  std::string t;
+  t.reserve(name.size() + data.size() + 16);
+  if (!name.empty()) {
+    t += "event: ";
+    for (char ch : name)
+      if (ch != '\r' && ch != '\n') t += ch;
+    t += '\n';
+  }
+  size_t start = 0;
+  for (;;) {
+    const size_t end = data.find_first_of("\r\n", start);
+    t += "data: ";
+    t.append(data.substr(start, end == std::string_view::npos ? end : end - start));
+    t += '\n';
+    if (end == std::string_view::npos) break;
+    start = end + (data[end] == '\r' && end + 1 < data.size() && data[end + 1] == '\n' ? 2 : 1);
+  }
+  t += '\n';
+  return t;
+}
+}  // namespace
+
+HttpServer::HttpServer(Node& node, HttpServerOptions options, Callbacks callbacks)
+    : node_(node),
+      options_(std::move(options)),
+      callbacks_(std::move(callbacks)),
+      alive_(std::make_shared<bool>(true)) {}
+
+HttpServer::~HttpServer() {
+  *alive_ = false;
+  while (!conns_.empty()) close(conns_.begin());
+  if (listen_fd_ >= 0) {
+    node_.unwatch_fd(listen_fd_);
+    ::close(listen_fd_);
+  }
+}
+
+void HttpServer::route(std::string method, std::string path, Handler handler) {
+  routes_[std::move(path)].handlers[std::move(method)] = std::move(handler);
+}
+
+void HttpServer::stream(std::string path, std::function<void(StreamId)> on_open) {
+  routes_[std::move(path)].on_open = std::move(on_open);
+}
+
+bool HttpServer::open(std::string& error) {
+  listen_fd_ = ::socket(AF_INET, SOCK_STREAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
+  if (listen_fd_ < 0) {
+    error = std::string("socket: ") + std::strerror(errno);
+    return false;
+  }
+  const int on = 1;
+  setsockopt(listen_fd_, SOL_SOCKET, SO_REUSEADDR, &on, sizeof on);
+  sockaddr_in sa{};
+  sa.sin_family = AF_INET;
+  sa.sin_port = htons(options_.port);
+  inet_pton(AF_INET, options_.addr.c_str(), &sa.sin_addr);
+  if (::bind(listen_fd_, reinterpret_cast<const sockaddr*>(&sa), sizeof sa) != 0 ||
+      ::listen(listen_fd_, 16) != 0) {
+    error = "cannot listen on TCP " + options_.addr + ":" + std::to_string(options_.port) + ": " +
+            std::strerror(errno);
+    ::close(listen_fd_);
+    listen_fd_ = -1;
+    return false;
+  }
+  socklen_t len = sizeof sa;
+  getsockname(listen_fd_, reinterpret_cast<sockaddr*>(&sa), &len);
+  bound_port_ = ntohs(sa.sin_port);
+  node_.watch_fd(listen_fd_, POLLIN, [this](short) { on_accept(); });
+  // The timeouts are kept to within a quarter of the shortest.
+  const double shortest =
+      std::min({options_.idle_timeout_s, options_.request_timeout_s, options_.stream_keepalive_s});
+  std::weak_ptr<bool> alive = alive_;
+  node_.add_timer(std::clamp(shortest / 4, 0.01, 0.5), [this, alive] {
+    if (auto a = alive.lock(); a && *a) sweep();
+  });
+  return true;
+}
+
+void HttpServer::on_accept() {
+  for (int i = 0; i < 16; ++i) {
+    sockaddr_in from{};
+    socklen_t len = sizeof from;
+    const int fd = ::accept4(listen_fd_, reinterpret_cast<sockaddr*>(&from), &len,
+                             SOCK_NONBLOCK | SOCK_CLOEXEC);
+    if (fd < 0) return;
+    char text[INET_ADDRSTRLEN] = "?";
+    inet_ntop(AF_INET, &from.sin_addr, text, sizeof text);
+    if (conns_.size() >= options_.max_connections) {
+      static const std::string busy =
+          http_response(503, "application/json", error_body("too many connections"), false);
+      [[maybe_unused]] const ssize_t n = ::send(fd, busy.data(), busy.size(), MSG_NOSIGNAL);
+      ::close(fd);
+      if (callbacks_.on_refused)
+        callbacks_.on_refused(
+            503, "more than " + std::to_string(options_.max_connections) + " connections", text);
+      continue;
+    }
+    conns_.emplace_back();
+    const ConnIt it = std::prev(conns_.end());
+    it->fd = fd;
+    it->peer = text;
+    it->parser = HttpRequestParser(options_.limits);
+    it->last_activity = it->request_start = it->last_event = Clock::now();
+    watch(it);
+  }
+}
+
+void HttpServer::watch(ConnIt it) {
+  const Conn& c = *it;
+  // An ordinary connection is read only while no response is waiting; a stream always, to notice
+  // its client closing.
+  short events = 0;
+  if (c.stream_id != 0 || (c.out.empty() && !c.close_after)) events |= POLLIN;
+  if (!c.out.empty()) events |= POLLOUT;
+  node_.watch_fd(c.fd, events, [this, it](short revents) { on_event(it, revents); });
+}
+
+void HttpServer::close(ConnIt it) {
+  if (it->stream_id != 0) streams_.erase(it->stream_id);
+  node_.unwatch_fd(it->fd);
+  ::close(it->fd);
+  conns_.erase(it);
+}
+
+void HttpServer::close_soon(ConnIt it) {
+  if (&*it != busy_) {
+    close(it);
+    return;
+  }
+  it->dead = true;
+  if (it->stream_id != 0) streams_.erase(it->stream_id);
+}
+
+bool HttpServer::flush(Conn& c) {
+  size_t sent = 0;
+  while (sent < c.out.size()) {
+    const ssize_t n = ::send(c.fd, c.out.data() + sent, c.out.size() - sent, MSG_NOSIGNAL);
+    if (n < 0) {
+      if (!would_block(errno)) return false;
+      break;
+    }
+    sent += static_cast<size_t>(n);
+  }
+  if (sent == 0) return true;
+  c.last_activity = Clock::now();
+  if (sent < c.out.size()) {
+    c.out.erase(0, sent);
+  } else if (c.out.capacity() > kKeptOutputCapacity) {
+    std::string().swap(c.out);
+  } else {
+    c.out.clear();
+  }
+  return true;
+}
+
+void HttpServer::on_event(ConnIt it, short /*revents: the reads and writes say what happened*/) {
+  Conn& c = *it;
+  bool ok = false;
+  {
+    // Events sent meanwhile (on_open, a handler's broadcast) are only queued on this connection.
+    busy_ = &c;
+    struct ClearBusy {
+      const Conn*& busy;
+      ~ClearBusy() { busy = nullptr; }
+    } clear_busy{busy_};
+    ok = c.stream_id != 0 ? drain_stream_input(c) && flush(c) : serve(it);
+  }
+  if (!ok || c.dead || (c.close_after && c.out.empty())) {
+    close(it);
+    return;
+  }
+  watch(it);
+}
+
+bool HttpServer::drain_stream_input(Conn& c) {
+  char buf[4096];
+  for (int i = 0; i < kMaxReadsPerEvent; ++i) {
+    const ssize_t n = ::recv(c.fd, buf, sizeof buf, 0);
+    if (n == 0) return false;
+    if (n < 0) return would_block(errno);
+  }
+  return true;
+}
+
+bool HttpServer::serve(ConnIt it) {
+  Conn& c = *it;
+  if (!flush(c)) return false;
+  int reads = 0;
+  while (c.out.empty() && !c.close_after && c.stream_id == 0 && !c.dead) {
+    if (c.in_used < c.in.size()) {
+      if (!c.parser.in_progress()) c.request_start = Clock::now();
+      c.in_used += c.parser.feed(std::string_view(c.in).substr(c.in_used));
+      if (c.in_used == c.in.size()) {
+        c.in.clear();
+        c.in_used = 0;
+      }
+      answer(it);
+      if (!flush(c)) return false;
+      continue;
+    }
+    if (reads++ == kMaxReadsPerEvent) break;
+    char buf[kReadChunk];
+    const ssize_t n = ::recv(c.fd, buf, sizeof buf, 0);
+    if (n == 0 || (n < 0 && !would_block(errno))) return false;
+    if (n < 0) break;
+    c.in.assign(buf, static_cast<size_t>(n));
+    c.in_used = 0;
+    c.last_activity = Clock::now();
+  }
+  if (c.stream_id != 0) {
+    c.in.clear();
+    c.in_used = 0;
+  }
+  return true;
+}
+
+void HttpServer::refuse(Conn& c, int status, const std::string& reason, bool keep_alive,
+                        std::string_view extra_headers) {
+  if (callbacks_.on_refused) callbacks_.on_refused(status, reason, c.peer);
+  c.out += http_response(status, "application/json", error_body(reason), keep_alive, extra_headers);
+  if (!keep_alive) c.close_after = true;
+}
+
+std::string HttpServer::not_found_hint() const {
+  if (routes_.size() == 1) {
+    const auto& [path, route] = *routes_.begin();
+    std::string methods;
+    for (const auto& [method, handler] : route.handlers)
+      methods += (methods.empty() ? "" : " or ") + method;
+    if (route.on_open) methods += methods.empty() ? "GET" : " or GET";
+    return " (" + methods + " to " + path + ")";
+  }
+  constexpr size_t kShown = 8;
+  std::string paths;
+  size_t n = 0;
+  for (const auto& [path, route] : routes_) {
+    if (n++ == kShown) {
+      paths += ", ...";
+      break;
+    }
+    paths += (paths.empty() ? "" : ", ") + path;
+  }
+  return paths.empty() ? "" : " (paths: " + paths + ")";
+}
+
+void HttpServer::answer(ConnIt it) {
+  using State = HttpRequestParser::State;
+  Conn& c = *it;
+  if (c.parser.state() == State::kError) {
+    refuse(c, c.parser.error_status(), c.parser.error_reason(), false);
+    return;
+  }
+  if (c.parser.take_continue()) c.out += "HTTP/1.1 100 Continue\r\n\r\n";
+  if (c.parser.state() != State::kRequest) return;
+  const HttpRequest& r = c.parser.request();
+  const bool head = r.method == "HEAD";
+  const auto found = routes_.find(r.target);
+  if (found == routes_.end()) {
+    refuse(c, 404, "no such path " + printable(r.target) + not_found_hint(), r.keep_alive);
+    c.parser.next();
+    return;
+  }
+  const Route& route = found->second;
+  if (route.on_open && (r.method == "GET" || head)) {
+    if (head) {
+      c.out += std::string(kStreamHead) + "Connection: close\r\n\r\n";
+      c.close_after = true;
+    } else {
+      open_stream(it, found->first, route);
+    }
+    c.parser.next();
+    return;
+  }
+  auto handler = route.handlers.find(r.method);
+  if (handler == route.handlers.end() && head) handler = route.handlers.find("GET");
+  if (handler == route.handlers.end()) {
+    std::set<std::string> allowed;
+    for (const auto& [method, h] : route.handlers) allowed.insert(method);
+    if (allowed.contains("GET") || route.on_open) allowed.insert({"GET", "HEAD"});
+    std::string allow;
+    for (const std::string& m : allowed) allow += (allow.empty() ? "" : ", ") + m;
+    refuse(c, 405,
+           "method " + printable(r.method) + " not allowed on " + found->first + " (" + allow + ")",
+           r.keep_alive, "Allow: " + allow + "\r\n");
+    c.parser.next();
+    return;
+  }
+  HttpReply reply;
+  const Handler call = handler->second;  // a copy: the handler may add routes
+  try {
+    reply = call(r, c.peer, wall_utime_now());
+  } catch (const std::exception& e) {
+    refuse(c, 500, r.method + " " + found->first + " failed: " + printable(e.what()), r.keep_alive);
+    c.parser.next();
+    return;
+  }
+  std::string response = http_response(reply.status, reply.content_type, reply.body, r.keep_alive,
+                                       reply.extra_headers);
+  if (head) response.resize(response.find("\r\n\r\n") + 4);
+  if (c.out.empty()) {
+    c.out = std::move(response);
+  } else {
+    c.out += response;
+  }
+  if (!r.keep_alive) c.close_after = true;
+  c.parser.next();
+}
+
+void HttpServer::open_stream(ConnIt it, const std::string& path, const Route& route) {
+  Conn& c = *it;
+  c.out += std::string(kStreamHead) + "\r\n";
+  c.stream_id = next_stream_id_++;
+  c.stream_path = path;
+  c.last_event = Clock::now();
+  streams_[c.stream_id] = it;
+  const auto on_open = route.on_open;  // a copy: it may add routes
+  try {
+    on_open(c.stream_id);
+  } catch (const std::exception& e) {
+    const std::string why = "event stream " + path + ": opening failed: " + printable(e.what());
+    const std::string peer = c.peer;
+    close_soon(it);
+    if (callbacks_.on_refused) callbacks_.on_refused(500, why, peer);
+  }
+}
+
+bool HttpServer::queue_event(ConnIt it, std::string_view text) {
+  Conn& c = *it;
+  if (c.dead) return false;
+  if (c.out.size() >= options_.max_stream_backlog_bytes) {
+    ++streams_dropped_;
+    const std::string peer = c.peer;
+    const std::string why = "event stream " + c.stream_path + " fell behind by " +
+                            std::to_string(c.out.size()) + " bytes";
+    close_soon(it);
+    if (callbacks_.on_refused) callbacks_.on_refused(503, why, peer);
+    return false;
+  }
+  c.out += text;
+  c.last_event = Clock::now();
+  if (&c == busy_) return true;  // sent when its event handler returns
+  if (!flush(c)) {               // the client is gone
+    close(it);
+    return false;
+  }
+  watch(it);
+  return true;
+}
+
+bool HttpServer::send_event(StreamId id, std::string_view name, std::string_view data) {
+  const auto found = streams_.find(id);
+  return found != streams_.end() && queue_event(found->second, event_text(name, data));
+}
+
+size_t HttpServer::broadcast(const std::string& path, std::string_view name,
+                             std::string_view data) {
+  std::vector<StreamId> ids;
+  for (const auto& [id, it] : streams_)
+    if (it->stream_path == path) ids.push_back(id);
+  if (ids.empty()) return 0;
+  const std::string text = event_text(name, data);
+  size_t sent = 0;
+  for (StreamId id : ids)
+    if (const auto found = streams_.find(id); found != streams_.end())
+      sent += queue_event(found->second, text) ? 1 : 0;
+  return sent;
+}
+
+size_t HttpServer::stream_count(const std::string& path) const {
+  return static_cast<size_t>(std::count_if(streams_.begin(), streams_.end(), [&](const auto& s) {
+    return s.second->stream_path == path;
+  }));
+}
+
+void HttpServer::sweep() {
+  const auto now = Clock::now();
+  const auto idle = std::chrono::duration<double>(options_.idle_timeout_s);
+  const auto slow = std::chrono::duration<double>(options_.request_timeout_s);
+  const auto keepalive = std::chrono::duration<double>(options_.stream_keepalive_s);
+  for (auto it = conns_.begin(); it != conns_.end();) {
+    const auto next = std::next(it);
+    Conn& c = *it;
+    if (c.stream_id != 0) {
+      // A comment line (ignored by EventSource): keeps idle streams open through proxies, and a
+      // dead peer shows as a send error or a growing backlog.
+      if (now - c.last_event > keepalive) queue_event(it, ": keepalive\n\n");
+    } else if (c.parser.in_progress() && now - c.request_start > slow) {
+      const std::string why =
+          "request not complete after " + seconds_text(options_.request_timeout_s);
+      if (callbacks_.on_refused) callbacks_.on_refused(408, why, c.peer);
+      c.out += http_response(408, "application/json", error_body(why), false);
+      flush(c);
+      close(it);
+    } else if (!c.parser.in_progress() && now - c.last_activity > idle) {
+      close(it);
+    }
+    it = next;
+  }
+}
+
+}  // namespace ips::http

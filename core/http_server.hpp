@@ -1,0 +1,152 @@
+#pragma once
+// A minimal HTTP/1.1 server on a Node's loop (non-blocking sockets, no threads): exact-path routes
+// for the phone apps that POST their readings and for a dashboard's pages and JSON, and
+// Server-Sent Events streams (the WHATWG HTML "text/event-stream" format) that push to browsers.
+// A path without a route is 404, a method the path does not take 405 (with Allow); what
+// http_request.hpp refuses gets its status (400, 411, 413, 431, 501, ...) and the connection is
+// closed.
+//
+// Memory is bounded whatever the clients do: at most max_connections (more are answered 503 and
+// closed at once). An ordinary connection holds at most one read chunk (16 KiB) of bytes not yet
+// parsed, one request head and body within the limits, and one response: the next request is read
+// only once the previous response has been taken by the client, however large it is. A
+// connection silent for idle_timeout_s (reading nothing of a response counts as silent), or whose
+// request takes longer than request_timeout_s to arrive (a slow client), is closed (408 for the
+// latter). An event stream holds at most max_stream_backlog_bytes of events its client has not
+// taken, plus one event: an event sent when that much is waiting closes the stream instead
+// (counted in streams_dropped()). Streams are exempt from the idle timeout; a ": keepalive"
+// comment every stream_keepalive_s keeps proxies from closing them and finds dead peers.
+#include <chrono>
+#include <cstdint>
+#include <functional>
+#include <list>
+#include <map>
+#include <memory>
+#include <string>
+#include <string_view>
+
+#include "core/http_request.hpp"
+#include "core/time.hpp"
+
+namespace ips {
+class Node;
+}
+
+namespace ips::http {
+
+struct HttpServerOptions {
+  std::string addr = "127.0.0.1";
+  uint16_t port = 8000;  // 0: any free port (bound_port() says which)
+  HttpLimits limits;
+  size_t max_connections = 8;
+  double idle_timeout_s = 30.0;
+  double request_timeout_s = 10.0;
+  size_t max_stream_backlog_bytes = 1 << 20;  // an SSE client that falls further behind is closed
+  double stream_keepalive_s = 15.0;           // ": keepalive\n\n" comment on idle streams
+};
+
+struct HttpReply {
+  int status = 200;
+  std::string content_type = "application/json";
+  std::string body;
+  // Whole header lines, each ending "\r\n" (e.g. "Cache-Control: no-store\r\n").
+  std::string extra_headers;
+};
+
+class HttpServer {
+ public:
+  // A route's answer to a request; `peer` is the client's IPv4 address, `utime` the wall-clock
+  // time the request was complete. A handler that throws gets a 500 (reported as refused).
+  using Handler =
+      std::function<HttpReply(const HttpRequest& request, const std::string& peer, utime_t utime)>;
+  using StreamId = uint64_t;
+  struct Callbacks {
+    // A request refused before reaching a handler (bad request, no such path (404), a method the
+    // path does not take (405, with an Allow header), too big, too slow, too many connections),
+    // a handler that threw (500), and an event stream closed for falling behind (503): for
+    // counting and reporting.
+    std::function<void(int status, const std::string& reason, const std::string& peer)> on_refused;
+  };
+
+  HttpServer(Node& node, HttpServerOptions options, Callbacks callbacks = {});
+  ~HttpServer();
+  HttpServer(const HttpServer&) = delete;
+  HttpServer& operator=(const HttpServer&) = delete;
+
+  // Exact-path routes (the query string is not part of the match; it is in HttpRequest::query).
+  // Several methods may share a path. A GET route also answers HEAD (same headers, no body).
+  void route(std::string method, std::string path, Handler handler);
+  // A GET of `path` becomes a Server-Sent Events stream: "200 text/event-stream", Cache-Control:
+  // no-store, no Content-Length, kept open; on_open(id) runs right after (e.g. to send the first
+  // snapshot). Requests after the head on that connection are ignored; the client closing it is
+  // noticed. A HEAD of `path` gets the same head and the connection is closed.
+  void stream(std::string path, std::function<void(StreamId)> on_open);
+  // Sends one event ("event: NAME\n" when name is not empty, then "data: LINE\n" per line of data,
+  // then "\n"). False when the stream no longer exists (or was closed by this event: it fell
+  // behind, or its client is gone).
+  bool send_event(StreamId id, std::string_view name, std::string_view data);
+  // Sends to every open stream of `path`; returns how many got it.
+  size_t broadcast(const std::string& path, std::string_view name, std::string_view data);
+  size_t stream_count(const std::string& path) const;
+
+  bool open(std::string& error);
+  uint16_t bound_port() const { return bound_port_; }
+  size_t connections() const { return conns_.size(); }
+  // Event streams closed for a backlog over max_stream_backlog_bytes.
+  int64_t streams_dropped() const { return streams_dropped_; }
+
+ private:
+  using Clock = std::chrono::steady_clock;
+  struct Route {
+    std::map<std::string, Handler> handlers;  // by method
+    std::function<void(StreamId)> on_open;    // set: GET is an event stream
+  };
+  struct Conn {
+    int fd = -1;
+    std::string peer;
+    HttpRequestParser parser;
+    std::string in;            // bytes received and not yet parsed (at most one read chunk)
+    size_t in_used = 0;        // of `in`, already parsed
+    std::string out;           // response or event bytes not yet sent
+    bool close_after = false;  // once `out` is sent
+    bool dead = false;         // to be closed when its event handler returns
+    StreamId stream_id = 0;    // 0: not an event stream
+    std::string stream_path;
+    Clock::time_point last_activity, request_start, last_event;
+  };
+  using ConnIt = std::list<Conn>::iterator;
+
+  void on_accept();
+  void on_event(ConnIt it, short revents);
+  // Parses and answers while no response is waiting; false when the connection is to be closed.
+  bool serve(ConnIt it);
+  bool drain_stream_input(Conn& c);
+  void answer(ConnIt it);
+  void refuse(Conn& c, int status, const std::string& reason, bool keep_alive,
+              std::string_view extra_headers = {});
+  void open_stream(ConnIt it, const std::string& path, const Route& route);
+  // Queues an event (or comment) on a stream; false when the stream was closed instead.
+  bool queue_event(ConnIt it, std::string_view text);
+  bool flush(Conn& c);
+  void close(ConnIt it);
+  // Closes at once, or marks for closing when `it` is the connection being handled.
+  void close_soon(ConnIt it);
+  void sweep();
+  void watch(ConnIt it);
+  std::string not_found_hint() const;
+
+  Node& node_;
+  HttpServerOptions options_;
+  Callbacks callbacks_;
+  std::map<std::string, Route> routes_;
+  int listen_fd_ = -1;
+  uint16_t bound_port_ = 0;
+  std::list<Conn> conns_;
+  std::map<StreamId, ConnIt> streams_;
+  StreamId next_stream_id_ = 1;
+  int64_t streams_dropped_ = 0;
+  const Conn* busy_ = nullptr;  // the connection whose event handler is running
+  std::shared_ptr<bool> alive_;
+};
+
+}  // namespace ips::http
