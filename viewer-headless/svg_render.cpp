@@ -8,6 +8,7 @@
 #include <numbers>
 
 #include "core/channels.hpp"
+#include "core/svg_text.hpp"
 #include "core/text_escape.hpp"
 
 namespace ips::view {
@@ -25,31 +26,12 @@ constexpr double kMaxGridLines = 50;
 // Track points further out than this do not extend the map (sites are within 1e6 m).
 constexpr double kMaxCoordinateM = 1e9;
 
-std::string format(const char* fmt, double v) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, fmt, v);
-  return buf;
-}
-// Off-map points keep their direction but not a 300-digit coordinate (they are clipped anyway).
-std::string px(double v) { return format("%.1f", std::clamp(v, -1e7, 1e7)); }
+using svg::format;
+using svg::px;
 
-// printable() first, then cut, then entity references: an entity is never cut in half.
-std::string label_text(std::string_view s) {
-  std::string p = printable(s);
-  if (p.size() > kLabelMaxChars) p = p.substr(0, kLabelMaxChars - 3) + "...";
-  return xml_text(p);
-}
+// Cut, then escaped: an entity is never cut in half.
+std::string label_text(std::string_view s) { return xml_text(svg::short_label(s, kLabelMaxChars)); }
 
-struct Box {
-  double x_min = std::numeric_limits<double>::infinity(), x_max = -x_min;
-  double y_min = x_min, y_max = -x_min;
-  void add(double x, double y) {
-    if (!std::isfinite(x) || !std::isfinite(y)) return;
-    x_min = std::min(x_min, x), x_max = std::max(x_max, x);
-    y_min = std::min(y_min, y), y_max = std::max(y_max, y);
-  }
-  bool valid() const { return x_min <= x_max && y_min <= y_max; }
-};
 
 std::string ellipse_svg(const Ellipse& e, const Eigen::Vector2d& c, double pixels_per_m,
                         const std::string& colour) {
@@ -122,9 +104,9 @@ double grid_step_m(double extent_m) {
 }
 
 MapFrame map_frame(const ViewModel& model, const SvgOptions& options) {
-  Box anchors;
+  svg::Bounds anchors;
   for (const Anchor& a : model.anchors()) anchors.add(a.position.x(), a.position.y());
-  Box box = anchors;
+  svg::Bounds box = anchors;
   // Track points beyond the anchors' box by more than `reach` are pulled in to it.
   const double reach = anchors.valid()
                            ? std::max(5.0, 0.5 * std::max(anchors.x_max - anchors.x_min,
@@ -208,10 +190,7 @@ std::string render_svg(const ViewModel& model, const SvgOptions& options) {
 
   std::string s;
   s.reserve(8192 + model.tracks().size() * (512 + 16 * model.options().trail_length));
-  s += "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" + px(width) + "\" height=\"" +
-       px(height) + "\" viewBox=\"0 0 " + px(width) + " " + px(height) +
-       "\" font-family=\"sans-serif\" font-size=\"12\">\n<title>" + title + "</title>\n";
-  s += "<rect width=\"100%\" height=\"100%\" fill=\"#fff\"/>\n";
+  s += svg::open(width, height, title);
   s += "<defs><clipPath id=\"map-clip\"><rect x=\"" + px(f.left) + "\" y=\"" + px(f.top) +
        "\" width=\"" + px(f.width_px()) + "\" height=\"" + px(f.height_px()) +
        "\"/></clipPath><marker id=\"aoa-arrow\" viewBox=\"0 0 8 8\" refX=\"7\" refY=\"4\" "

@@ -29,7 +29,7 @@ bool make_room(Map& map, size_t max, utime_t now, double expire_s, LastSeen last
   auto oldest = map.begin();
   for (auto it = map.begin(); it != map.end(); ++it)
     if (last_seen(it->second) < last_seen(oldest->second)) oldest = it;
-  if (!(utime_to_s(now) - utime_to_s(last_seen(oldest->second)) >= expire_s)) return false;
+  if (!(seconds_between(now, last_seen(oldest->second)) >= expire_s)) return false;
   map.erase(oldest);
   ++expired;
   return true;
@@ -312,8 +312,10 @@ ChannelRow ViewModel::row(const std::string& channel, const ChannelMeter& m, uti
   r.channel = channel;
   r.count = m.count;
   r.bytes = m.bytes;
-  r.age_s = utime_to_s(now - m.last_host_utime);
-  const utime_t since = now - s_to_utime(options_.rate_window_s);
+  r.age_s = seconds_between(now, m.last_host_utime);
+  utime_t since = 0;
+  if (__builtin_sub_overflow(now, s_to_utime(options_.rate_window_s), &since))
+    since = std::numeric_limits<utime_t>::min();
   utime_t first = std::numeric_limits<utime_t>::max(), last = std::numeric_limits<utime_t>::min();
   size_t k = 0;
   double bytes = 0;
@@ -329,7 +331,7 @@ ChannelRow ViewModel::row(const std::string& channel, const ChannelMeter& m, uti
   }
   const double window_s = options_.rate_window_s;
   if (k == 0) return r;
-  const double span_s = utime_to_s(last - first);
+  const double span_s = seconds_between(last, first);
   // k arrivals are k - 1 intervals; a burst within one microsecond falls back to k per window.
   r.rate_hz = k >= 2 && span_s > 0 ? static_cast<double>(k - 1) / span_s
                                    : static_cast<double>(k) / window_s;
@@ -351,10 +353,10 @@ std::vector<std::string> ViewModel::pose_channels() const {
   return out;
 }
 
-std::string ViewModel::json(utime_t now) const {
-  const auto age = [&](utime_t t) { return json_number(utime_to_s(now - t)); };
+std::string ViewModel::json(utime_t now, bool with_trails) const {
+  const auto age = [&](utime_t t) { return json_number(seconds_between(now, t)); };
   std::string s;
-  s.reserve(4096 + tracks_.size() * (256 + 40 * options_.trail_length));
+  s.reserve(4096 + tracks_.size() * (256 + (with_trails ? 40 * options_.trail_length : 0)));
   s += '{';
   key(s, "now_utime");
   s += std::to_string(now);
@@ -447,13 +449,17 @@ std::string ViewModel::json(utime_t now) const {
     key(s, "count");
     s += std::to_string(t.count) + ',';
     key(s, "non_finite");
-    s += std::to_string(t.non_finite) + ',';
-    key(s, "trail");
-    s += '[';
-    const auto pts = t.trail.points();
-    for (size_t i = 0; i < pts.size(); ++i)
-      s += (i ? ",[" : "[") + json_number(pts[i].x()) + ',' + json_number(pts[i].y()) + ']';
-    s += "]}";
+    s += std::to_string(t.non_finite);
+    if (with_trails) {
+      s += ',';
+      key(s, "trail");
+      s += '[';
+      const auto pts = t.trail.points();
+      for (size_t i = 0; i < pts.size(); ++i)
+        s += (i ? ",[" : "[") + json_number(pts[i].x()) + ',' + json_number(pts[i].y()) + ']';
+      s += ']';
+    }
+    s += '}';
   }
   s += ']';
 

@@ -112,6 +112,14 @@ struct Process {
   utime_t host_utime = 0;
 };
 
+// later - earlier in seconds, for any two times (bus and log times are not trusted to be close:
+// their difference in microseconds may not fit in 64 bits).
+inline double seconds_between(utime_t later, utime_t earlier) {
+  utime_t d = 0;
+  if (!__builtin_sub_overflow(later, earlier, &d)) return utime_to_s(d);  // exact to the us
+  return utime_to_s(later) - utime_to_s(earlier);
+}
+
 // HEALTH state names as the page shows them ("ok", "degraded", "error", "starting", else
 // "unknown").
 const char* health_state_name(int8_t state);
@@ -157,8 +165,9 @@ class ViewModel {
   void on_bytes(const std::string& channel, size_t bytes, utime_t host_utime);
 
   // The live page's snapshot: site, anchors (in the site's order), tracks, channels, processes
-  // (each sorted by its key) and stats; ages in seconds before `now` (host time).
-  std::string json(utime_t now) const;
+  // (each sorted by its key) and stats; ages in seconds before `now` (host time). Without
+  // trails, each track's "trail" is left out (the live stream: the page keeps its own trails).
+  std::string json(utime_t now, bool with_trails = true) const;
 
   const ViewOptions& options() const { return options_; }
   const ViewStats& stats() const { return stats_; }

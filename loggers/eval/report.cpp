@@ -8,6 +8,7 @@
 #include <tuple>
 #include <utility>
 
+#include "core/svg_text.hpp"
 #include "core/text_escape.hpp"
 
 namespace ips::eval {
@@ -27,12 +28,8 @@ constexpr double kLegendRow = 18, kCharWidth = 7;
 constexpr double kMapMaxWidth = 640, kMapMaxHeight = 520;
 constexpr double kPlotWidth = 640, kPlotHeight = 320;
 
-std::string format(const char* fmt, double v) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, fmt, v);
-  return buf;
-}
-std::string px(double v) { return format("%.1f", v); }
+using svg::format;
+using svg::px;
 
 // A number for the table: 3 decimals like the text table, "-" where nothing was measured.
 std::string table_number(double v) { return std::isfinite(v) ? format("%.3f", v) : "-"; }
@@ -45,9 +42,7 @@ std::string tick_label(double v, double step) {
 }
 
 std::string series_label(const std::string& channel, const std::string& tag) {
-  std::string s = printable(channel) + " / " + printable(tag);
-  if (s.size() > kLabelMaxChars) s = s.substr(0, kLabelMaxChars - 3) + "...";
-  return s;
+  return svg::short_label(channel + " / " + tag, kLabelMaxChars);
 }
 
 std::string stroke_style(size_t i) {
@@ -74,16 +69,7 @@ const TruthTracks& truth_of(const ReportInput& in) {
   return in.truth ? *in.truth : kNone;
 }
 
-struct Bounds {
-  double x_min = std::numeric_limits<double>::infinity(), x_max = -x_min;
-  double y_min = x_min, y_max = -x_min;
-  void add(double x, double y) {
-    if (!std::isfinite(x) || !std::isfinite(y)) return;
-    x_min = std::min(x_min, x), x_max = std::max(x_max, x);
-    y_min = std::min(y_min, y), y_max = std::max(y_max, y);
-  }
-  bool valid() const { return x_min <= x_max; }
-};
+using Bounds = svg::Bounds;
 
 struct LegendEntry {
   std::string label;       // already printable, not yet escaped
@@ -91,13 +77,6 @@ struct LegendEntry {
   std::string marker;      // SVG of a marker centred at (0, 0), used when line_style is empty
 };
 
-// The SVG head: size, the figure's title (escaped by the caller), a white background.
-std::string svg_open(double width, double height, const std::string& title_escaped) {
-  return "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" + px(width) + "\" height=\"" +
-         px(height) + "\" viewBox=\"0 0 " + px(width) + " " + px(height) +
-         "\" font-family=\"sans-serif\" font-size=\"12\">\n<title>" + title_escaped +
-         "</title>\n<rect width=\"100%\" height=\"100%\" fill=\"#fff\"/>\n";
-}
 
 // Frame, grid, ticks with labels, axis titles and a clip path `clip_id` for the data.
 std::string axes(const PlotFrame& f, const std::vector<double>& xt, const std::vector<double>& yt,
@@ -240,7 +219,7 @@ std::string map_figure(const ReportInput& in, const ReportOptions& opt) {
 
   const double width = f.left + f.width + kLegendGap + legend_width(entries) + 8;
   const double height = canvas_height(f, entries.size());
-  std::string s = svg_open(width, height, "Map: anchors, truth and estimated tracks");
+  std::string s = svg::open(width, height, "Map: anchors, truth and estimated tracks");
   s += axes(f, xt, yt, "x (m)", "y (m)", "map-clip");
 
   s += "<g class=\"truth-tracks\" clip-path=\"url(#map-clip)\" fill=\"none\" stroke=\"#000\" "
@@ -325,7 +304,7 @@ std::string error_time_figure(const ReportInput& in, const ReportOptions& opt) {
     entries.push_back({series_label(in.series[i].channel, in.series[i].tag), stroke_style(i), ""});
   const double width = f.left + f.width + kLegendGap + legend_width(entries) + 8;
   std::string s =
-      svg_open(width, canvas_height(f, entries.size()), "Horizontal error against time");
+      svg::open(width, canvas_height(f, entries.size()), "Horizontal error against time");
   s += axes(f, xt, yt, "time since the first truth or estimate (s)", "horizontal error (m)",
             "error-time-clip");
   s += "<g class=\"errors\" clip-path=\"url(#error-time-clip)\" fill=\"none\" "
@@ -361,7 +340,7 @@ std::string error_cdf_figure(const ReportInput& in, const ReportOptions& opt) {
     entries.push_back({label, stroke_style(i), ""});
   }
   const double width = f.left + f.width + kLegendGap + legend_width(entries) + 8;
-  std::string s = svg_open(width, canvas_height(f, entries.size()),
+  std::string s = svg::open(width, canvas_height(f, entries.size()),
                            "Horizontal error CDF with CEP50 and CEP95");
   s += axes(f, xt, yt, "horizontal error (m)", "fraction of estimates", "error-cdf-clip");
   // CEP50 and CEP95 are where each curve crosses these lines; the dots mark them.

@@ -2,3 +2,16 @@
 # floor map. Paths relative to tests/.
 ips_unit_test(view_test viewer/view_model_test.cpp viewer/svg_render_test.cpp)
 target_link_libraries(view_test PRIVATE ips_view)
+ips_fuzz_target(view_log viewer/view_log_fuzz.cpp ips_view)
+
+# ips-view on a log: every HTTP route, paced playback, SVG/PNG rendering, start-up errors.
+add_test(NAME view_log_cli
+         COMMAND ${CMAKE_CURRENT_SOURCE_DIR}/viewer/view_log_cli.sh ${CMAKE_RUNTIME_OUTPUT_DIRECTORY})
+set_tests_properties(view_log_cli PROPERTIES LABELS integration TIMEOUT 120)
+# ips-view live over LCM multicast in a private network namespace, with Debian's headless
+# Chromium loading the page (screenshot: BUILD/test-output/viewer-live.png).
+add_test(NAME view_browser_netns
+         COMMAND ${CMAKE_CURRENT_SOURCE_DIR}/viewer/view_browser_netns.sh
+                 ${CMAKE_RUNTIME_OUTPUT_DIRECTORY})
+set_tests_properties(view_browser_netns PROPERTIES LABELS integration TIMEOUT 180
+                                                   SKIP_RETURN_CODE 77 RESOURCE_LOCK cpu_heavy)

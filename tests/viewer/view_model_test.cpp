@@ -3,6 +3,8 @@
 // snapshot's escaping of names from the air.
 #include "viewer-headless/view_model.hpp"
 
+#include <ips/uwb_range_t.hpp>
+
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -14,6 +16,8 @@
 #include <set>
 #include <string>
 #include <vector>
+
+#include "viewer-headless/bus_feed.hpp"
 
 namespace ips::view {
 namespace {
@@ -594,6 +598,98 @@ TEST(ChannelColours, DefaultChannelsKeepFixedColoursOthersShareThePalette) {
   EXPECT_EQ(distinct.size(), c.size());
   // The same channel has the same colour whatever else is on the bus.
   EXPECT_EQ(channel_colours({"POSE_UWB"}).at("POSE_UWB"), "#1f77b4");
+}
+
+template <class Msg>
+std::vector<uint8_t> encoded(const Msg& m) {
+  std::vector<uint8_t> b(static_cast<size_t>(m.getEncodedSize()));
+  m.encode(b.data(), 0, static_cast<int>(b.size()));
+  return b;
+}
+
+TEST(BusFeed, DecodesSitesHealthAndPosesOnAnyChannelAndCountsTheRest) {
+  ViewModel m;
+  BusFeed feed(m, {});
+  const auto site = encoded(site_msg(kLabSite));
+  feed.feed("SITE", site.data(), site.size(), kT0);
+  const auto p = encoded(pose("T1", 3, 4));
+  feed.feed("POSE_UWB", p.data(), p.size(), kT0 + 1);
+  feed.feed("MY_OWN_ESTIMATOR", p.data(), p.size(), kT0 + 2);
+  health_t h{};
+  h.source = "ips-uwb-twr";
+  h.host = "lab-pc";
+  h.pid = 42;
+  h.state = health_t::STATE_OK;
+  const auto hb = encoded(h);
+  feed.feed("HEALTH", hb.data(), hb.size(), kT0 + 3);
+  uwb_range_t r{};
+  r.tag_id = "T1";
+  r.anchor_id = "A1";
+  const auto rb = encoded(r);
+  feed.feed("UWB_RANGE", rb.data(), rb.size(), kT0 + 4);
+  // A pose on HEALTH and a range on SITE are refused by the fingerprint, and counted.
+  feed.feed("HEALTH", p.data(), p.size(), kT0 + 5);
+  feed.feed("SITE", rb.data(), rb.size(), kT0 + 6);
+  const uint8_t junk[3] = {1, 2, 3};
+  feed.feed("POSE_UWB", junk, sizeof junk, kT0 + 7);
+
+  EXPECT_EQ(feed.stats().messages, 8);
+  EXPECT_EQ(feed.stats().poses, 2);
+  EXPECT_EQ(feed.stats().undecodable, 2);
+  EXPECT_EQ(feed.stats().other, 2);  // the range, and the junk on POSE_UWB
+  EXPECT_TRUE(m.has_site());
+  EXPECT_EQ(m.anchors().size(), 5u);
+  ASSERT_EQ(m.tracks().size(), 2u);
+  EXPECT_EQ(m.tracks().at({"MY_OWN_ESTIMATOR", "T1"}).position.x(), 3.0);
+  EXPECT_EQ(m.processes().size(), 1u);
+  // Every message counts in the channel table, decoded or not.
+  const auto rows = m.channel_table(kT0 + 10);
+  ASSERT_EQ(rows.size(), 5u);
+  EXPECT_EQ(rows[0].channel, "HEALTH");
+  EXPECT_EQ(rows[0].count, 2);
+  EXPECT_EQ(rows[2].channel, "POSE_UWB");
+  EXPECT_EQ(rows[2].count, 2);
+  EXPECT_EQ(rows[2].bytes, static_cast<int64_t>(p.size() + sizeof junk));
+}
+
+TEST(BusFeed, AnEmptySiteChannelTakesNoSite) {
+  // ips-view --site FILE: SITE messages are not taken (nor decoded as poses).
+  ViewModel m;
+  BusFeed feed(m, {.site = "", .health = "HEALTH"});
+  const auto site = encoded(site_msg(kLabSite));
+  feed.feed("SITE", site.data(), site.size(), kT0);
+  EXPECT_FALSE(m.has_site());
+  EXPECT_EQ(feed.stats().other, 1);
+  EXPECT_EQ(m.channel_table(kT0).size(), 1u);
+}
+
+TEST(ViewModel, JsonWithoutTrailsLeavesThemOut) {
+  ViewModel m;
+  for (int i = 0; i < 5; ++i) m.on_pose("POSE_UWB", pose("T1", i, 0), kT0 + i);
+  const std::string with = m.json(kT0 + 10);
+  const std::string without = m.json(kT0 + 10, false);
+  EXPECT_TRUE(valid_json(without)) << without;
+  EXPECT_NE(with.find("\"trail\":[[0,0],[1,0],[2,0],[3,0],[4,0]]"), std::string::npos) << with;
+  EXPECT_EQ(without.find("\"trail\""), std::string::npos) << without;
+  EXPECT_NE(without.find("\"position\":[4,0,1.2]"), std::string::npos) << without;
+}
+
+TEST(ViewModel, HostTimesFarApartDoNotOverflow) {
+  // Log times are whatever the file says: ages and rates over the whole int64 range are plain
+  // doubles (UBSan in the sanitizer build checks the arithmetic; fuzz_view_log found this).
+  ViewModel m;
+  const utime_t lo = std::numeric_limits<utime_t>::min() + 1;
+  const utime_t hi = std::numeric_limits<utime_t>::max();
+  m.on_bytes("A", 10, lo);
+  m.on_bytes("A", 10, hi);
+  m.on_pose("POSE_UWB", pose("T1", 1, 2), lo);
+  const auto rows = m.channel_table(hi);
+  ASSERT_EQ(rows.size(), 1u);
+  EXPECT_EQ(rows[0].age_s, 0.0);
+  EXPECT_GT(rows[0].rate_hz, 0.0);
+  EXPECT_TRUE(valid_json(m.json(hi)));
+  EXPECT_TRUE(valid_json(m.json(lo)));
+  EXPECT_NEAR(seconds_between(hi, lo), 1.8446744e13, 1e7);
 }
 
 }  // namespace

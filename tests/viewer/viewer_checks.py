@@ -1,0 +1,364 @@
+#!/usr/bin/env python3
+"""Checks of a running ips-view, for tests/viewer/*.sh (Python standard library only).
+
+  viewer_checks.py endpoints URL --mode live|log [--log LOG]
+      every HTTP route: the page and its files (with their security headers), /api/info,
+      /api/state (with and without trails), /map.svg (well-formed XML), the event stream,
+      HEAD, and the refusals (404, 405 with Allow). With --log: the served state holds every
+      TRUTH message of the log (its count) and ended where the log ends.
+  viewer_checks.py browser URL --webdriver URL --screenshot PNG --payload TEXT
+      drives Debian's headless Chromium through chromedriver (W3C WebDriver over HTTP): loads the
+      page, waits for tag T1 on TRUTH and POSE_UWB, checks that it moves in the table and on the
+      map and that the estimate is near the truth, that the channel and process tables are
+      filled, that a tag named PAYLOAD (markup) is shown as text and ran nothing, that the
+      browser logged no error, and saves a screenshot.
+Exits 1 with "FAIL: ..." on the first failed check.
+"""
+import argparse
+import base64
+import json
+import math
+import socket
+import sys
+import time
+import urllib.error
+import urllib.parse
+import urllib.request
+import xml.etree.ElementTree as ET
+
+SVG = '{http://www.w3.org/2000/svg}'
+
+
+def fail(what):
+    print('FAIL: ' + what, file=sys.stderr)
+    sys.exit(1)
+
+
+def check(ok, what):
+    if not ok:
+        fail(what)
+
+
+def http(url, method='GET', body=None, timeout=10):
+    """(status, headers dict lower-cased, body bytes); HTTP errors are returned, not raised."""
+    req = urllib.request.Request(url, data=body, method=method)
+    try:
+        with urllib.request.urlopen(req, timeout=timeout) as r:
+            return r.status, {k.lower(): v for k, v in r.headers.items()}, r.read()
+    except urllib.error.HTTPError as e:
+        return e.code, {k.lower(): v for k, v in e.headers.items()}, e.read()
+
+
+def get_json(url):
+    status, headers, body = http(url)
+    check(status == 200, f'GET {url}: status {status}')
+    check(headers.get('content-type', '').startswith('application/json'),
+          f'GET {url}: content type {headers.get("content-type")}')
+    try:
+        return json.loads(body)
+    except ValueError as e:
+        fail(f'GET {url}: not JSON ({e}): {body[:200]!r}')
+
+
+def read_events(base, want, timeout=10):
+    """The first events of /events, read off a raw socket: [(name, data)] until every name in
+    `want` was seen."""
+    u = urllib.parse.urlparse(base)
+    s = socket.create_connection((u.hostname, u.port), timeout=timeout)
+    s.sendall(b'GET /events HTTP/1.1\r\nHost: x\r\nAccept: text/event-stream\r\n\r\n')
+    buf = b''
+    deadline = time.time() + timeout
+    while b'\r\n\r\n' not in buf:
+        check(time.time() < deadline, '/events: no response head')
+        chunk = s.recv(65536)
+        check(chunk, '/events: closed before the head')
+        buf += chunk
+    head, buf = buf.split(b'\r\n\r\n', 1)
+    lines = head.decode().split('\r\n')
+    check(lines[0].startswith('HTTP/1.1 200'), f'/events: {lines[0]}')
+    headers = {l.split(':', 1)[0].lower(): l.split(':', 1)[1].strip() for l in lines[1:]}
+    check(headers.get('content-type', '').startswith('text/event-stream'),
+          f'/events: content type {headers.get("content-type")}')
+    check('content-length' not in headers, '/events has a Content-Length')
+    events, seen = [], set()
+    while not set(want) <= seen:
+        while b'\n\n' in buf:
+            block, buf = buf.split(b'\n\n', 1)
+            name, data = '', []
+            for line in block.decode().split('\n'):
+                if line.startswith('event: '):
+                    name = line[7:]
+                elif line.startswith('data: '):
+                    data.append(line[6:])
+            if data:
+                events.append((name, '\n'.join(data)))
+                seen.add(name)
+        if set(want) <= seen:
+            break
+        check(time.time() < deadline, f'/events: saw {sorted(seen)} in {timeout} s, want {want}')
+        chunk = s.recv(65536)
+        check(chunk, '/events: closed')
+        buf += chunk
+    s.close()
+    return events
+
+
+def estimates_in_svg(svg_text, where):
+    try:
+        root = ET.fromstring(svg_text)
+    except ET.ParseError as e:
+        fail(f'{where}: not well-formed XML: {e}')
+    check(root.tag == SVG + 'svg', f'{where}: root element {root.tag}')
+    return [c for c in root.iter(SVG + 'circle') if c.get('class') == 'estimate']
+
+
+def endpoints(a):
+    base = a.url.rstrip('/')
+    status, headers, body = http(base + '/')
+    check(status == 200, f'GET /: status {status}')
+    check(headers.get('content-type') == 'text/html; charset=utf-8', f'GET /: {headers}')
+    csp = headers.get('content-security-policy', '')
+    check("script-src 'self'" in csp and "default-src 'self'" in csp, f'GET /: CSP {csp!r}')
+    check(headers.get('x-content-type-options') == 'nosniff', 'GET /: no nosniff')
+    check(b'<script src="/view.js"></script>' in body, 'GET /: the page does not load view.js')
+    check(b'http://' not in body.replace(b'http://www.w3.org', b'') and b'https://' not in body,
+          'GET /: the page refers to another site')
+    for path, ctype, marker in (('/view.js', 'text/javascript; charset=utf-8', b'EventSource'),
+                                ('/view.css', 'text/css; charset=utf-8', b'#map')):
+        status, headers, body = http(base + path)
+        check(status == 200 and headers.get('content-type') == ctype and marker in body,
+              f'GET {path}: status {status}, type {headers.get("content-type")}')
+        check(b'https://' not in body and b'http://' not in body.replace(b'http://www.w3.org', b''),
+              f'GET {path}: refers to another site')
+    status, headers, body = http(base + '/', method='HEAD')
+    check(status == 200 and body == b'', f'HEAD /: status {status}, {len(body)} body bytes')
+
+    info = get_json(base + '/api/info')
+    check(info.get('program') == 'ips-view' and info.get('mode') == a.mode, f'/api/info: {info}')
+
+    state = get_json(base + '/api/state')
+    for k in ('site', 'anchors', 'tracks', 'channels', 'processes', 'stats'):
+        check(k in state, f'/api/state: no "{k}"')
+    check(state['site'] is not None and state['site']['name'] == 'lab',
+          f'/api/state: site {state["site"]}')
+    check(len(state['anchors']) == 12, f'/api/state: {len(state["anchors"])} anchors (lab has 12)')
+    tracks = {(t['channel'], t['tag']): t for t in state['tracks']}
+    for ch in a.channels.split(','):
+        check((ch, 'T1') in tracks, f'/api/state: no track of T1 on {ch}: {sorted(tracks)}')
+    truth = tracks[('TRUTH', 'T1')]
+    check(all('trail' in t for t in state['tracks']), '/api/state: a track without its trail')
+    check(len(truth['trail']) >= 2, f'/api/state: TRUTH trail {len(truth["trail"])}')
+    channels = {c['channel']: c for c in state['channels']}
+    for ch in ('SITE', 'TRUTH', 'UWB_RANGE'):
+        check(ch in channels and channels[ch]['count'] > 0, f'/api/state: channel {ch} not counted')
+    brief = get_json(base + '/api/state?trails=0')
+    check(brief['tracks'] and all('trail' not in t for t in brief['tracks']),
+          '/api/state?trails=0 still has trails')
+
+    status, headers, body = http(base + '/map.svg')
+    check(status == 200 and headers.get('content-type') == 'image/svg+xml; charset=utf-8',
+          f'GET /map.svg: status {status}, {headers.get("content-type")}')
+    circles = estimates_in_svg(body, '/map.svg')
+    check(len(circles) >= len(a.channels.split(',')),
+          f'/map.svg: {len(circles)} estimates drawn')
+
+    events = read_events(base, ['state', 'map'])
+    for name, data in events:
+        if name == 'state':
+            s = json.loads(data)
+            check(s['tracks'] and all('trail' not in t for t in s['tracks']),
+                  '/events state: no tracks, or trails in it')
+        elif name == 'map':
+            estimates_in_svg(data, '/events map')
+
+    status, headers, body = http(base + '/no/such/page')
+    check(status == 404 and json.loads(body)['status'] == 'error', f'GET /no/such/page: {status}')
+    status, headers, body = http(base + '/api/state', method='POST', body=b'{}')
+    check(status == 405 and 'GET' in headers.get('allow', ''),
+          f'POST /api/state: status {status}, Allow {headers.get("allow")}')
+
+    if a.log:
+        import lcm_log
+        truth_events = sum(1 for e in lcm_log.events(a.log)[0] if e[0] == 'TRUTH')
+        check(info['log_done'] is True, '/api/info: the log is not done (--speed 0)')
+        check(truth['count'] == truth_events,
+              f'TRUTH T1 count {truth["count"]}, the log has {truth_events} TRUTH messages')
+        print(f'log: all {truth_events} TRUTH messages shown')
+    print(f'endpoints ok: {len(state["tracks"])} tracks, {len(channels)} channels, '
+          f'{len(state["processes"])} processes, {len(circles)} estimates on the map, '
+          f'events {[n for n, _ in events]}')
+
+
+class WebDriver:
+    def __init__(self, url):
+        self.url = url.rstrip('/')
+        self.sid = None
+
+    def call(self, method, path, body=None, timeout=60):
+        data = json.dumps(body).encode() if body is not None else None
+        req = urllib.request.Request(self.url + path, data=data, method=method,
+                                     headers={'Content-Type': 'application/json'})
+        try:
+            with urllib.request.urlopen(req, timeout=timeout) as r:
+                return json.load(r)['value']
+        except urllib.error.HTTPError as e:
+            fail(f'webdriver {method} {path}: {e.code} {e.read()[:500]!r}')
+
+    def start(self):
+        caps = {'capabilities': {'alwaysMatch': {
+            'browserName': 'chrome',
+            'goog:loggingPrefs': {'browser': 'ALL'},
+            'goog:chromeOptions': {
+                'binary': '/usr/bin/chromium',
+                'args': ['--headless=new', '--no-sandbox', '--disable-gpu',
+                         '--disable-dev-shm-usage', '--window-size=1400,1000',
+                         '--no-first-run', '--disable-extensions'],
+            }}}}
+        self.sid = self.call('POST', '/session', caps)['sessionId']
+
+    def s(self, method, path, body=None):
+        return self.call(method, f'/session/{self.sid}{path}', body)
+
+    def js(self, script):
+        return self.s('POST', '/execute/sync', {'script': script, 'args': []})
+
+    def quit(self):
+        if self.sid:
+            self.call('DELETE', f'/session/{self.sid}')
+            self.sid = None
+
+
+TABLE_JS = """
+return [...document.querySelectorAll('#tracks tbody tr')].map(r => ({
+  channel: r.dataset.channel, tag: r.dataset.tag,
+  cells: [...r.cells].map(c => c.textContent)}));
+"""
+MARKERS_JS = """
+return [...document.querySelectorAll('#map circle.estimate')].map(c => ({
+  title: c.querySelector('title') ? c.querySelector('title').textContent : '',
+  cx: parseFloat(c.getAttribute('cx')), cy: parseFloat(c.getAttribute('cy'))}));
+"""
+
+
+def poll(fn, until, timeout, what):
+    deadline = time.time() + timeout
+    while True:
+        v = fn()
+        if until(v):
+            return v
+        if time.time() > deadline:
+            fail(f'{what} within {timeout} s; last seen: {str(v)[:800]}')
+        time.sleep(0.25)
+
+
+def xy(rows, channel, tag):
+    for r in rows:
+        if r['channel'] == channel and r['tag'] == tag:
+            return float(r['cells'][2]), float(r['cells'][3])
+    return None
+
+
+def marker(markers, channel, tag):
+    for m in markers:
+        if m['title'].startswith(f'{channel} {tag} ('):
+            return m['cx'], m['cy']
+    return None
+
+
+def browser(a):
+    wd = WebDriver(a.webdriver)
+    wd.start()
+    try:
+        wd.s('POST', '/url', {'url': a.url})
+        t0 = time.time()
+        rows = poll(lambda: wd.js(TABLE_JS),
+                    lambda rows: xy(rows, 'TRUTH', 'T1') and xy(rows, 'POSE_UWB', 'T1'),
+                    30, 'the page shows T1 on TRUTH and POSE_UWB')
+        print(f'page shows T1 after {time.time() - t0:.1f} s: {len(rows)} estimate rows')
+        first = xy(rows, 'TRUTH', 'T1')
+        first_marker = poll(lambda: marker(wd.js(MARKERS_JS), 'TRUTH', 'T1'), bool, 10,
+                            'the map draws TRUTH T1')
+        # The walker goes at 1 m/s: within a few seconds the table and the map must follow.
+        moved = poll(lambda: wd.js(TABLE_JS),
+                     lambda rows: xy(rows, 'TRUTH', 'T1') and
+                     math.dist(xy(rows, 'TRUTH', 'T1'), first) >= 1.0,
+                     10, 'TRUTH T1 moves 1 m in the table')
+        truth, est = xy(moved, 'TRUTH', 'T1'), xy(moved, 'POSE_UWB', 'T1')
+        moved_marker = marker(wd.js(MARKERS_JS), 'TRUTH', 'T1')
+        check(moved_marker and math.dist(moved_marker, first_marker) >= 10,
+              f'TRUTH T1 on the map stayed at {first_marker} (now {moved_marker})')
+        # The table shows one snapshot: the estimate is within a metre of the truth.
+        check(math.dist(truth, est) <= 1.0, f'POSE_UWB T1 {est} is far from TRUTH T1 {truth}')
+        print(f'T1 moved {math.dist(first, truth):.2f} m in the table, '
+              f'{math.dist(first_marker, moved_marker):.0f} px on the map; '
+              f'POSE_UWB {est} vs TRUTH {truth}')
+
+        channels = wd.js("return [...document.querySelectorAll('#channels tbody tr')].map("
+                         "r => [...r.cells].map(c => c.textContent));")
+        by_name = {c[0]: c for c in channels}
+        for ch in ('SITE', 'TRUTH', 'UWB_RANGE', 'POSE_UWB', 'HEALTH'):
+            check(ch in by_name, f'channel table has no {ch}: {sorted(by_name)}')
+        check(float(by_name['UWB_RANGE'][2]) >= 5, f'UWB_RANGE at {by_name["UWB_RANGE"][2]} Hz')
+        procs = poll(lambda: wd.js("return [...document.querySelectorAll('#processes tbody tr')]"
+                                   ".map(r => [...r.cells].map(c => c.textContent));"),
+                     lambda p: any(r[0] == 'ips-uwb-twr' and r[3] == 'ok' for r in p), 10,
+                     'the process table shows ips-uwb-twr ok')
+        print(f'channel table: {len(channels)} rows (UWB_RANGE {by_name["UWB_RANGE"][2]} Hz); '
+              f'processes: {sorted(r[0] for r in procs)}')
+
+        # The tag named with markup is text in the table and on the map, and ran nothing.
+        payload = a.payload
+        shown = poll(lambda: wd.js(
+            "return [...document.querySelectorAll('#tracks tbody tr')].filter("
+            "r => r.dataset.tag === " + json.dumps(payload) + ").map(r => r.cells[0].textContent);"),
+            lambda v: len(v) >= 1, 20, 'the page shows the tag named ' + payload)
+        check(all(v == payload for v in shown), f'the tag shows as {shown}')
+        # The map cuts long labels to "<start>...".
+        on_map = wd.js("const p = " + json.dumps(payload) + ";"
+                       "return [...document.querySelectorAll('#map text.tag-id')].filter("
+                       "t => t.textContent === p || (t.textContent.endsWith('...') &&"
+                       " t.textContent.length > 10 && p.startsWith(t.textContent.slice(0, -3))))"
+                       ".length;")
+        check(on_map >= 1, 'the map does not label the tag named ' + payload)
+        injected = wd.js("return {pwned: window.pwned === undefined ? null : window.pwned, "
+                         "images: document.images.length, "
+                         "scripts: document.querySelectorAll('script').length, "
+                         "bold: document.querySelectorAll('b').length};")
+        check(injected == {'pwned': None, 'images': 0, 'scripts': 1, 'bold': 0},
+              f'markup from a tag name reached the page: {injected}')
+        print(f'tag {payload!r}: shown as text in {len(shown)} rows and {on_map} map labels; '
+              f'nothing injected {injected}')
+
+        logs = wd.s('POST', '/se/log', {'type': 'browser'})
+        errors = [l for l in logs if l.get('level') == 'SEVERE']
+        check(not errors, f'the browser logged errors: {errors}')
+        png = base64.b64decode(wd.s('GET', '/screenshot'))
+        check(png[:8] == b'\x89PNG\r\n\x1a\n' and len(png) > 10000,
+              f'screenshot: {len(png)} bytes')
+        with open(a.screenshot, 'wb') as f:
+            f.write(png)
+        print(f'screenshot: {a.screenshot} ({len(png)} bytes); browser log: {len(logs)} entries, '
+              f'no error')
+    finally:
+        wd.quit()
+
+
+def main():
+    p = argparse.ArgumentParser(description=__doc__.split('\n')[0])
+    sub = p.add_subparsers(dest='cmd', required=True)
+    e = sub.add_parser('endpoints')
+    e.add_argument('url')
+    e.add_argument('--mode', choices=['live', 'log'], required=True)
+    e.add_argument('--log')
+    e.add_argument('--channels', default='TRUTH,POSE_UWB')
+    b = sub.add_parser('browser')
+    b.add_argument('url')
+    b.add_argument('--webdriver', required=True)
+    b.add_argument('--screenshot', required=True)
+    b.add_argument('--payload', required=True)
+    a = p.parse_args()
+    endpoints(a) if a.cmd == 'endpoints' else browser(a)
+
+
+if __name__ == '__main__':
+    main()

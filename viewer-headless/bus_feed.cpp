@@ -1,0 +1,40 @@
+#include "viewer-headless/bus_feed.hpp"
+
+#include <ips/health_t.hpp>
+#include <ips/pose_t.hpp>
+#include <ips/site_t.hpp>
+
+#include "core/node.hpp"
+
+namespace ips::view {
+
+void BusFeed::feed(const std::string& channel, const void* data, size_t size,
+                   utime_t host_utime) {
+  ++stats_.messages;
+  model_.on_bytes(channel, size, host_utime);
+  if (channel == channels_.site) {
+    site_t site;
+    if (decode_message(site, data, size))
+      model_.on_site(site, host_utime);
+    else
+      ++stats_.undecodable;
+    return;
+  }
+  if (channel == channels_.health) {
+    health_t health;
+    if (decode_message(health, data, size))
+      model_.on_health(health, host_utime);
+    else
+      ++stats_.undecodable;
+    return;
+  }
+  pose_t pose;
+  if (decode_message(pose, data, size)) {
+    ++stats_.poses;
+    model_.on_pose(channel, pose, host_utime);
+  } else {
+    ++stats_.other;
+  }
+}
+
+}  // namespace ips::view

@@ -1,0 +1,469 @@
+// ips-view: the headless web dashboard. Serves a live page (floor map with anchors, every tag's
+// estimates with covariance ellipses and trails, a channel table, process health) for the bus or
+// for a log played at its own pace, and renders a log or a live snapshot to SVG or PNG.
+//
+//   ips-view                          the live bus on http://127.0.0.1:8080/
+//   ips-view --bind 0.0.0.0           the same, reachable from other machines
+//   ips-view LOG [--speed 4]          a log, played into the page (--speed 0: all at once)
+//   ips-view render LOG --out map.svg [--at S]   the map at S seconds into the log (default: end)
+//   ips-view render --live 3 --out map.png       the map after listening to the bus for 3 s
+//
+// HTTP (docs/viewer.md): GET / (the page), /view.js, /view.css, /api/state (JSON snapshot;
+// ?trails=0 without trails), /api/info, /map.svg, and /events (Server-Sent Events: "state" and
+// "map" a few times a second). Everything is served by this process: no internet needed.
+#include <spdlog/spdlog.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <cstdio>
+#include <fstream>
+#include <limits>
+#include <lcm/lcm-cpp.hpp>
+#include <memory>
+#include <optional>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "core/channels.hpp"
+#include "core/cli.hpp"
+#include "core/http_server.hpp"
+#include "core/log_input.hpp"
+#include "core/log_reader.hpp"
+#include "core/node.hpp"
+#include "core/site.hpp"
+#include "core/svg_text.hpp"
+#include "core/text_escape.hpp"
+#include "core/time.hpp"
+#include "viewer-headless/bus_feed.hpp"
+#include "viewer-headless/png_output.hpp"
+#include "viewer-headless/svg_render.hpp"
+#include "viewer-headless/view_model.hpp"
+#include "viewer-headless/web_assets.hpp"
+
+namespace {
+
+constexpr const char* kProgram = "ips-view";
+
+using ips::utime_t;
+using ips::view::BusFeed;
+using ips::view::ViewModel;
+
+struct MapOptions {
+  double width_px = 900;
+  double height_px = 700;
+  double sigma = 2.0;
+  bool no_trails = false;
+  std::string title;
+
+  ips::view::SvgOptions svg() const {
+    ips::view::SvgOptions o;
+    o.max_width_px = width_px;
+    o.max_height_px = height_px;
+    o.ellipse_sigma = sigma;
+    o.trails = !no_trails;
+    o.title = title;
+    return o;
+  }
+};
+
+struct ServeOptions {
+  std::string log;
+  std::string bind = "127.0.0.1";
+  int port = 8080;
+  double speed = 1.0;
+  double update_hz = 4.0;
+  size_t max_clients = 32;
+};
+
+struct RenderOptions {
+  std::string log;
+  double live_s = 0;
+  std::string out;
+  double at_s = -1;  // < 0: the end of the log
+  double zoom = 1.0;
+  bool force = false;
+};
+
+ips::view::FeedChannels feed_channels(const ips::CommonOptions& opts) {
+  ips::view::FeedChannels c;
+  // With --site the map's site is that file's: SITE messages are not taken.
+  c.site = opts.site_path.empty() ? opts.channel(ips::channel::kSite) : "";
+  c.health = opts.channel(ips::channel::kHealth);
+  return c;
+}
+
+// --site: the map's site from a file (a bad file ends the program with one line, status 2).
+void pin_site(ViewModel& model, const ips::CommonOptions& opts) {
+  if (opts.site_path.empty()) return;
+  const ips::Site site = ips::load_site_file(opts.site_path);
+  const utime_t now = ips::wall_utime_now();
+  model.on_site(ips::site_to_msg(site, now, "--site " + opts.site_path), now);
+}
+
+// A log fed into the model at its own pace: event k when (t_k - t_0) / speed has passed since
+// the start (speed <= 0: all at once). The model's clock is the log's.
+class LogPlayback {
+ public:
+  LogPlayback(std::unique_ptr<ips::LogInput> in, BusFeed& feed, double speed)
+      : in_(std::move(in)), feed_(feed), speed_(speed), start_(Clock::now()) {
+    if (speed_ <= 0) advance();
+  }
+
+  // Feeds every event due now.
+  void advance() {
+    if (done_) return;
+    for (;;) {
+      if (!pending_) {
+        const ips::LogEvent* e = in_->next();
+        if (!e) {
+          finish();
+          return;
+        }
+        if (!first_) first_ = last_ = e->timestamp_us;
+        pending_ = Event{e->channel, std::vector<uint8_t>(e->data, e->data + e->size),
+                         e->timestamp_us};
+      }
+      if (speed_ > 0 && ips::view::seconds_between(pending_->utime, *first_) > elapsed_log_s())
+        return;
+      feed_.feed(pending_->channel, pending_->data.data(), pending_->data.size(),
+                 pending_->utime);
+      last_ = std::max(last_, pending_->utime);
+      ++events_;
+      pending_.reset();
+    }
+  }
+
+  // The log time the page shows: the playback's cursor, or the last event's time at the end.
+  utime_t now() const {
+    if (done_ || speed_ <= 0 || !first_) return last_;
+    return std::max(last_, cursor());
+  }
+  bool done() const { return done_; }
+  int64_t events() const { return events_; }
+  double seconds() const { return first_ ? ips::view::seconds_between(last_, *first_) : 0.0; }
+
+ private:
+  using Clock = std::chrono::steady_clock;
+  struct Event {
+    std::string channel;
+    std::vector<uint8_t> data;
+    utime_t utime;
+  };
+  // Log seconds since the first event that the playback has reached.
+  double elapsed_log_s() const {
+    return std::chrono::duration<double>(Clock::now() - start_).count() * speed_;
+  }
+  // The log time reached (saturating: log times are not trusted).
+  utime_t cursor() const {
+    utime_t t = 0;
+    if (__builtin_add_overflow(*first_, ips::s_to_utime(elapsed_log_s()), &t))
+      t = std::numeric_limits<utime_t>::max();
+    return t;
+  }
+  void finish() {
+    done_ = true;
+    in_->finish("showing what was read");
+    std::fprintf(stderr, "%s: end of the log: %lld events over %.1f s; still serving its last state\n",
+                 kProgram, static_cast<long long>(events_), seconds());
+  }
+
+  std::unique_ptr<ips::LogInput> in_;
+  BusFeed& feed_;
+  double speed_;
+  Clock::time_point start_;
+  std::optional<utime_t> first_;
+  std::optional<Event> pending_;
+  utime_t last_ = 0;
+  int64_t events_ = 0;
+  bool done_ = false;
+};
+
+bool loopback_address(const std::string& addr) { return addr.rfind("127.", 0) == 0; }
+
+std::string host_name() {
+  char name[256] = {};
+  if (::gethostname(name, sizeof name - 1) != 0 || name[0] == '\0') return "this-machine";
+  return name;
+}
+
+int serve(ips::CommonOptions opts, const ServeOptions& so, const MapOptions& mo) {
+  const bool from_log = !so.log.empty();
+  // A log is shown, not republished: the process's own HEALTH stays off the LAN.
+  if (from_log && opts.lcm_url.empty()) opts.lcm_url = "memq://";
+  ips::Node node(kProgram, opts);
+  ViewModel model;
+  BusFeed feed(model, feed_channels(opts));
+  pin_site(model, opts);
+
+  std::unique_ptr<LogPlayback> playback;
+  if (from_log) {
+    auto in = ips::LogInput::open(kProgram, so.log);
+    if (!in) return 2;
+    playback = std::make_unique<LogPlayback>(std::move(in), feed, so.speed);
+    node.add_timer(0.02, [&] { playback->advance(); });
+  } else {
+    node.subscribe_raw(".*", [&](const lcm::ReceiveBuffer* rbuf, const std::string& channel) {
+      const int64_t undecodable = feed.stats().undecodable;
+      feed.feed(channel, rbuf->data, static_cast<size_t>(rbuf->data_size), rbuf->recv_utime);
+      if (feed.stats().undecodable != undecodable) {
+        ++node.counters().parse_errors;
+        node.report_error("channel " + ips::printable(channel) + ": a message that is not a " +
+                          (channel == opts.channel(ips::channel::kSite) ? "site_t" : "health_t"));
+      }
+    });
+  }
+  // What the model could not keep (full tables, overlong ids, non-finite positions) shows in
+  // HEALTH as drops, with the counts in last_error.
+  int64_t reported_drops = 0;
+  node.add_timer(1.0, [&] {
+    const ips::view::ViewStats& v = model.stats();
+    const int64_t drops = v.dropped_long_ids + v.dropped_too_many_tracks +
+                          v.dropped_too_many_channels + v.dropped_too_many_processes +
+                          v.non_finite_positions + v.bad_sites;
+    if (drops == reported_drops) return;
+    node.counters().drops += drops - reported_drops;
+    reported_drops = drops;
+    node.report_error("not shown: " + std::to_string(v.dropped_too_many_tracks) +
+                      " poses beyond the track limit, " +
+                      std::to_string(v.dropped_too_many_channels) + " messages beyond the channel "
+                      "limit, " + std::to_string(v.dropped_too_many_processes) +
+                      " HEALTH beyond the process limit, " + std::to_string(v.dropped_long_ids) +
+                      " overlong ids, " + std::to_string(v.non_finite_positions) +
+                      " non-finite positions, " + std::to_string(v.bad_sites) + " bad sites");
+  });
+  const auto now = [&]() -> utime_t { return playback ? playback->now() : ips::wall_utime_now(); };
+
+  namespace http = ips::http;
+  http::HttpServerOptions ho;
+  ho.addr = so.bind;
+  ho.port = static_cast<uint16_t>(so.port);
+  ho.max_connections = so.max_clients;
+  ho.limits.max_body_bytes = 4096;  // every route is a GET
+  int64_t refused = 0;
+  http::HttpServer server(
+      node, ho,
+      {.on_refused = [&](int status, const std::string& reason, const std::string& peer) {
+        ++refused;
+        spdlog::debug("HTTP {} to {}: {}", status, peer, ips::printable(reason));
+      }});
+
+  // The page may load only what ips-view serves: even a string that escaped escaping could not
+  // run as a script.
+  const std::string page_headers =
+      "Content-Security-Policy: default-src 'self'; script-src 'self'; style-src 'self' "
+      "'unsafe-inline'; img-src 'self' data:; connect-src 'self'; object-src 'none'; base-uri "
+      "'none'; frame-ancestors 'none'\r\nX-Content-Type-Options: nosniff\r\nReferrer-Policy: "
+      "no-referrer\r\nCache-Control: no-cache\r\n";
+  const std::string data_headers = "Cache-Control: no-store\r\nX-Content-Type-Options: nosniff\r\n";
+  for (const ips::view::WebAsset& a : ips::view::web_assets())
+    server.route("GET", std::string(a.path), [&a, &page_headers](const http::HttpRequest&,
+                                                                  const std::string&, utime_t) {
+      return http::HttpReply{200, std::string(a.content_type), std::string(a.body), page_headers};
+    });
+  server.route("GET", "/api/state",
+               [&](const http::HttpRequest& r, const std::string&, utime_t) {
+                 const bool trails = r.query.find("trails=0") == std::string::npos;
+                 return http::HttpReply{200, "application/json", model.json(now(), trails),
+                                        data_headers};
+               });
+  server.route("GET", "/api/info", [&](const http::HttpRequest&, const std::string&, utime_t) {
+    std::string j = "{\"program\":\"ips-view\",\"mode\":";
+    j += from_log ? "\"log\"" : "\"live\"";
+    j += ",\"log\":" + ips::view::json_string(so.log);
+    j += ",\"speed\":" + ips::view::json_number(so.speed);
+    j += ",\"log_done\":";
+    j += playback && playback->done() ? "true" : "false";
+    j += ",\"lcm_url\":" + ips::view::json_string(from_log ? "" : opts.lcm_url.empty()
+                                                                       ? "(LCM default)"
+                                                                       : opts.lcm_url);
+    j += ",\"clients\":" + std::to_string(server.stream_count("/events"));
+    j += ",\"http_refused\":" + std::to_string(refused);
+    j += ",\"streams_dropped\":" + std::to_string(server.streams_dropped()) + "}";
+    return http::HttpReply{200, "application/json", j, data_headers};
+  });
+  const ips::view::SvgOptions svg_options = mo.svg();
+  server.route("GET", "/map.svg", [&](const http::HttpRequest&, const std::string&, utime_t) {
+    return http::HttpReply{200, "image/svg+xml; charset=utf-8",
+                           ips::view::render_svg(model, svg_options), data_headers};
+  });
+  server.route("GET", "/favicon.ico", [](const http::HttpRequest&, const std::string&, utime_t) {
+    return http::HttpReply{204, "text/plain", "", ""};
+  });
+  server.stream("/events", [&](http::HttpServer::StreamId id) {
+    server.send_event(id, "state", model.json(now(), false));
+    server.send_event(id, "map", ips::view::render_svg(model, svg_options));
+  });
+  node.add_timer(1.0 / so.update_hz, [&] {
+    if (server.stream_count("/events") == 0) return;
+    server.broadcast("/events", "state", model.json(now(), false));
+    server.broadcast("/events", "map", ips::view::render_svg(model, svg_options));
+  });
+
+  std::string error;
+  if (!server.open(error)) {
+    ips::print_fatal(kProgram, error + (so.port != 0 ? " (another ips-view? choose --port)" : ""));
+    return 1;
+  }
+  const std::string shown = so.bind == "0.0.0.0" ? host_name() : so.bind;
+  std::fprintf(stderr, "%s: serving http://%s:%u/ (%s)\n", kProgram, shown.c_str(),
+               server.bound_port(),
+               from_log ? ("log " + so.log).c_str() : "live bus");
+  if (!loopback_address(so.bind))
+    std::fprintf(stderr,
+                 "%s: warning: listening on %s: anyone who can reach this machine can see the "
+                 "page (there is no login)\n",
+                 kProgram, so.bind.c_str());
+  return node.run();
+}
+
+bool ends_with(const std::string& s, const std::string& suffix) {
+  return s.size() >= suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
+}
+
+int render(const ips::CommonOptions& opts, const RenderOptions& ro, const MapOptions& mo) {
+  const bool png = ends_with(ro.out, ".png");
+  if (!png && !ends_with(ro.out, ".svg")) {
+    ips::print_fatal(kProgram, "--out '" + ro.out + "' must end in .svg or .png");
+    return 2;
+  }
+  if (ro.log.empty() == (ro.live_s <= 0)) {
+    ips::print_fatal(kProgram, "render: give either a LOG or --live SECONDS (see --help)");
+    return 2;
+  }
+  if (!ro.force && ::access(ro.out.c_str(), F_OK) == 0) {
+    ips::print_fatal(kProgram, "'" + ro.out + "' exists (--force to overwrite)");
+    return 2;
+  }
+  ViewModel model;
+  BusFeed feed(model, feed_channels(opts));
+  pin_site(model, opts);
+  std::string when;
+  if (!ro.log.empty()) {
+    const auto in = ips::LogInput::open(kProgram, ro.log);
+    if (!in) return 2;
+    std::optional<utime_t> first;
+    utime_t last = 0;
+    bool cut = false;
+    while (const ips::LogEvent* e = in->next()) {
+      if (!first) first = last = e->timestamp_us;
+      if (ro.at_s >= 0 && ips::view::seconds_between(e->timestamp_us, *first) > ro.at_s) {
+        cut = true;
+        break;
+      }
+      feed.feed(e->channel, e->data, e->size, e->timestamp_us);
+      last = std::max(last, e->timestamp_us);
+    }
+    if (!cut && !in->finish("rendering what was read")) return 2;
+    const double span = first ? ips::view::seconds_between(last, *first) : 0.0;
+    if (ro.at_s >= 0 && !cut)
+      std::fprintf(stderr, "%s: warning: --at %g s is past the end of the log (%.1f s): rendering its end\n",
+                   kProgram, ro.at_s, span);
+    when = ips::svg::format("at %.1f s of the log", span);
+  } else {
+    ips::Node node(kProgram, opts);
+    node.subscribe_raw(".*", [&](const lcm::ReceiveBuffer* rbuf, const std::string& channel) {
+      feed.feed(channel, rbuf->data, static_cast<size_t>(rbuf->data_size), rbuf->recv_utime);
+    });
+    node.add_timer(ro.live_s, [&] { node.stop(); });
+    const int rc = node.run();
+    if (rc != 0) return rc;
+    if (node.stop_signal() != 0) return 0;  // interrupted: nothing written
+    when = ips::svg::format("after %g s of the live bus", ro.live_s);
+  }
+
+  const std::string svg = ips::view::render_svg(model, mo.svg());
+  std::string error;
+  if (png) {
+    if (!ips::view::svg_to_png(svg, ro.out, ro.zoom, error)) {
+      ips::print_fatal(kProgram, error);
+      return 1;
+    }
+  } else {
+    std::ofstream f(ro.out, std::ios::binary | std::ios::trunc);
+    f << svg;
+    f.close();
+    if (!f) {
+      ips::print_fatal(kProgram, "cannot write '" + ro.out + "': " + std::strerror(errno));
+      return 1;
+    }
+  }
+  std::set<std::string> tags;
+  for (const auto& [key, track] : model.tracks()) tags.insert(track.tag);
+  const size_t channels = model.pose_channels().size();
+  std::fprintf(stderr, "%s: wrote %s: %s, %zu estimates of %zu tag%s on %zu channel%s, %s\n",
+               kProgram, ro.out.c_str(),
+               model.has_site() ? ("site " + ips::printable(model.site_name())).c_str()
+                                : "no site",
+               model.tracks().size(), tags.size(), tags.size() == 1 ? "" : "s", channels,
+               channels == 1 ? "" : "s", when.c_str());
+  if (feed.stats().messages == 0)
+    std::fprintf(stderr, "%s: warning: no message was read: the map is empty\n", kProgram);
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"ips-view: a web page for the bus or for a log, seen from any browser: the floor "
+               "map with anchors, every tag's estimates with covariance ellipses and trails, "
+               "ground truth, a channel table and each process's health, updated live. "
+               "`ips-view render` draws the map to SVG or PNG for reports.",
+               kProgram};
+  ips::CommonOptions opts;
+  ips::add_common_options(app, opts);
+  ServeOptions so;
+  MapOptions mo;
+  app.add_option("LOG", so.log, "serve this LCM log, played at --speed, instead of the live bus");
+  app.add_option("--bind", so.bind,
+                 "address to serve on (0.0.0.0: every interface; there is no login)")
+      ->capture_default_str();
+  app.add_option("--port", so.port, "TCP port (0: any free one, printed)")
+      ->check(CLI::Range(0, 65535))
+      ->capture_default_str();
+  app.add_option("--speed", so.speed, "with LOG: playback speed (0: the whole log at once)")
+      ->check(CLI::Range(0.0, 1000.0))
+      ->capture_default_str();
+  app.add_option("--update-hz", so.update_hz, "live updates sent to each page per second")
+      ->check(CLI::Range(0.2, 30.0))
+      ->capture_default_str();
+  app.add_option("--max-clients", so.max_clients, "HTTP connections at once (pages and requests)")
+      ->check(CLI::Range(1, 1024))
+      ->capture_default_str();
+
+  RenderOptions ro;
+  CLI::App* render_cmd = app.add_subcommand(
+      "render", "draw the floor map of a log (at its end, or --at S) or of the live bus "
+                "(--live S) to an SVG or PNG file");
+  render_cmd->add_option("LOG", ro.log, "LCM log to draw");
+  render_cmd->add_option("--out", ro.out, "output file, .svg or .png (PNG needs rsvg-convert)")
+      ->required();
+  render_cmd->add_option("--at", ro.at_s, "draw the state S seconds after the log's first event")
+      ->check(CLI::NonNegativeNumber);
+  render_cmd->add_option("--live", ro.live_s, "listen to the bus for S seconds, then draw")
+      ->check(CLI::PositiveNumber);
+  render_cmd->add_option("--zoom", ro.zoom, "PNG: scale factor")->check(CLI::Range(0.1, 20.0))
+      ->capture_default_str();
+  render_cmd->add_flag("--force", ro.force, "overwrite --out when it exists");
+  for (CLI::App* a : {&app, render_cmd}) {
+    a->add_option("--width", mo.width_px, "map size limit, pixels")
+        ->check(CLI::Range(100.0, 20000.0))
+        ->capture_default_str();
+    a->add_option("--height", mo.height_px, "map size limit, pixels")
+        ->check(CLI::Range(100.0, 20000.0))
+        ->capture_default_str();
+    a->add_option("--sigma", mo.sigma, "covariance ellipses at this many sigmas (0: none)")
+        ->check(CLI::Range(0.0, 10.0))
+        ->capture_default_str();
+    a->add_flag("--no-trails", mo.no_trails, "draw no trails");
+    a->add_option("--title", mo.title, "the map's title (default: ips-view and the site's name)");
+  }
+  render_cmd->fallthrough();
+  int rc = 0;
+  if (!ips::parse_command_line(app, opts, argc, argv, rc)) return rc;
+  if (*render_cmd) return ips::run_reporting_errors(kProgram, [&] { return render(opts, ro, mo); });
+  return ips::run_reporting_errors(kProgram, [&] { return serve(opts, so, mo); });
+}
