@@ -86,21 +86,6 @@ std::vector<Eigen::Vector2d> Trail::points() const {
   return out;
 }
 
-const char* health_state_name(int8_t state) {
-  switch (state) {
-    case health_t::STATE_OK:
-      return "ok";
-    case health_t::STATE_DEGRADED:
-      return "degraded";
-    case health_t::STATE_ERROR:
-      return "error";
-    case health_t::STATE_STARTING:
-      return "starting";
-    default:
-      return "unknown";
-  }
-}
-
 std::vector<std::string> status_names(int32_t status) {
   std::vector<std::string> names;
   if (status & pose_t::STATUS_OK) names.emplace_back("ok");

@@ -24,6 +24,7 @@
 #include <utility>
 #include <vector>
 
+#include "core/health_state.hpp"
 #include "core/site.hpp"
 #include "core/time.hpp"
 
@@ -120,9 +121,7 @@ inline double seconds_between(utime_t later, utime_t earlier) {
   return utime_to_s(later) - utime_to_s(earlier);
 }
 
-// HEALTH state names as the page shows them ("ok", "degraded", "error", "starting", else
-// "unknown").
-const char* health_state_name(int8_t state);
+using ips::health_state_name;  // core/health_state.hpp
 // pose_t::STATUS_* bits as names ("ok", "initialising", "coasting", "2d", "reinitialised").
 std::vector<std::string> status_names(int32_t status);
 

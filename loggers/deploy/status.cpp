@@ -1,0 +1,168 @@
+#include "loggers/deploy/status.hpp"
+
+#include <algorithm>
+#include <cstdio>
+#include <map>
+#include <set>
+
+#include "core/health_state.hpp"
+#include "core/text_escape.hpp"
+
+namespace ips::deploy {
+
+namespace {
+
+std::string base_name(const std::string& path) {
+  const size_t slash = path.rfind('/');
+  return slash == std::string::npos ? path : path.substr(slash + 1);
+}
+
+StatusRow row_of(const std::string& host, const std::string& process, const Heard& h,
+                 utime_t now) {
+  StatusRow r;
+  r.host = host;
+  r.process = process;
+  r.program = h.health.source;
+  r.pid = h.health.pid;
+  r.state = health_state_name(h.health.state);
+  r.age_s = utime_to_s(now) - utime_to_s(h.host_utime);
+  r.uptime_s = utime_to_s(h.health.uptime_us);
+  r.msgs_in = h.health.msgs_in;
+  r.msgs_out = h.health.msgs_out;
+  r.drops = h.health.drops;
+  r.last_error = h.health.last_error;
+  return r;
+}
+
+std::string fixed(double v, int decimals) {
+  char buf[48];
+  std::snprintf(buf, sizeof buf, "%.*f", decimals, v);
+  return buf;
+}
+
+}  // namespace
+
+StatusReport compare_status(const Deployment* d, const std::vector<Heard>& heard, utime_t now,
+                            double stale_s) {
+  // Live processes only, newest first.
+  std::vector<const Heard*> live;
+  for (const Heard& h : heard)
+    if (utime_to_s(now) - utime_to_s(h.host_utime) <= stale_s) live.push_back(&h);
+  std::sort(live.begin(), live.end(),
+            [](const Heard* a, const Heard* b) { return a->host_utime > b->host_utime; });
+  std::set<const Heard*> used;
+  StatusReport report;
+  if (d) {
+    for (const Host& host : d->hosts) {
+      for (const Process& p : host.processes) {
+        const std::string program = base_name(p.command);
+        const bool on_bus = program.rfind("ips-", 0) == 0;
+        if (!on_bus) {
+          StatusRow r;
+          r.host = host.name;
+          r.process = p.name;
+          r.program = program;
+          r.state = "no HEALTH";
+          report.rows.push_back(r);
+          continue;
+        }
+        ++report.expected;
+        const Heard* match = nullptr;
+        for (const Heard* h : live)
+          if (!used.count(h) && h->health.host == host.hostname && h->health.source == program) {
+            match = h;
+            break;
+          }
+        if (!match) {
+          StatusRow r;
+          r.host = host.name;
+          r.process = p.name;
+          r.program = program;
+          r.state = "MISSING";
+          report.rows.push_back(r);
+          ++report.missing;
+          continue;
+        }
+        used.insert(match);
+        StatusRow r = row_of(host.name, p.name, *match, now);
+        if (match->health.state == health_t::STATE_ERROR) ++report.in_error;
+        report.rows.push_back(r);
+      }
+      // Others heard on this host (ips-deploy itself, a tool run by hand).
+      std::vector<const Heard*> extra;
+      for (const Heard* h : live)
+        if (!used.count(h) && h->health.host == host.hostname) extra.push_back(h);
+      std::sort(extra.begin(), extra.end(), [](const Heard* a, const Heard* b) {
+        return std::tie(a->health.source, a->health.pid) < std::tie(b->health.source, b->health.pid);
+      });
+      for (const Heard* h : extra) {
+        used.insert(h);
+        report.rows.push_back(row_of(host.name, "", *h, now));
+      }
+    }
+  }
+  // Hosts the deployment does not name (or every host, without one).
+  std::vector<const Heard*> rest;
+  for (const Heard* h : live)
+    if (!used.count(h)) rest.push_back(h);
+  std::sort(rest.begin(), rest.end(), [](const Heard* a, const Heard* b) {
+    return std::tie(a->health.host, a->health.source, a->health.pid) <
+           std::tie(b->health.host, b->health.source, b->health.pid);
+  });
+  for (const Heard* h : rest) report.rows.push_back(row_of(h->health.host, "", *h, now));
+  return report;
+}
+
+std::string format_status(const StatusReport& r) {
+  std::string s;
+  char line[512];
+  std::string host;
+  for (const StatusRow& row : r.rows) {
+    if (row.host != host || s.empty()) {
+      host = row.host;
+      s += (s.empty() ? "" : "\n") + ("host " + printable(host)) + "\n";
+      std::snprintf(line, sizeof line, "  %-16s %-22s %8s %-10s %9s %7s %10s %10s %7s  %s\n",
+                    "process", "program", "pid", "state", "uptime s", "age s", "in", "out",
+                    "drops", "last error");
+      s += line;
+    }
+    const bool heard = row.pid != 0;
+    std::snprintf(line, sizeof line, "  %-16s %-22s %8s %-10s %9s %7s %10s %10s %7s  %s\n",
+                  row.process.empty() ? "-" : row.process.c_str(),
+                  printable(row.program).substr(0, 22).c_str(),
+                  heard ? std::to_string(row.pid).c_str() : "-", row.state.c_str(),
+                  heard ? fixed(row.uptime_s, 0).c_str() : "-",
+                  heard ? fixed(row.age_s, 1).c_str() : "-",
+                  heard ? std::to_string(row.msgs_in).c_str() : "-",
+                  heard ? std::to_string(row.msgs_out).c_str() : "-",
+                  heard ? std::to_string(row.drops).c_str() : "-",
+                  printable(row.last_error).substr(0, 160).c_str());
+    s += line;
+  }
+  if (r.rows.empty()) s += "no HEALTH heard\n";
+  s += "\n" + std::to_string(r.expected - r.missing) + " of " + std::to_string(r.expected) +
+       " expected processes heard" +
+       (r.in_error ? ", " + std::to_string(r.in_error) + " in error" : "") + "\n";
+  return s;
+}
+
+std::string status_json(const StatusReport& r) {
+  std::string s = "{\"ok\":";
+  s += r.ok() ? "true" : "false";
+  s += ",\"expected\":" + std::to_string(r.expected) + ",\"missing\":" + std::to_string(r.missing) +
+       ",\"in_error\":" + std::to_string(r.in_error) + ",\"processes\":[";
+  for (size_t i = 0; i < r.rows.size(); ++i) {
+    const StatusRow& row = r.rows[i];
+    s += (i ? ",{" : "{");
+    s += "\"host\":" + json_quote(row.host) + ",\"process\":" + json_quote(row.process) +
+         ",\"program\":" + json_quote(row.program) + ",\"pid\":" + std::to_string(row.pid) +
+         ",\"state\":" + json_quote(row.state) + ",\"age_s\":" + fixed(row.age_s, 3) +
+         ",\"uptime_s\":" + fixed(row.uptime_s, 3) + ",\"msgs_in\":" +
+         std::to_string(row.msgs_in) + ",\"msgs_out\":" + std::to_string(row.msgs_out) +
+         ",\"drops\":" + std::to_string(row.drops) + ",\"last_error\":" +
+         json_quote(row.last_error) + "}";
+  }
+  return s + "]}";
+}
+
+}  // namespace ips::deploy

@@ -1,0 +1,54 @@
+// libFuzzer target: deployment files (loggers/deploy/deployment.hpp) are text from the lab's
+// own hands, but a typo must still end in a ConfigError, never a crash or a hang. Whatever
+// parses goes on through the systemd units of every host and the status table (with one HEALTH
+// per process, so every row kind is built), and must keep its promises: every process of a host
+// gets its unit, and a process comes after every process it names in `after`.
+#include <cstddef>
+#include <cstdint>
+#include <set>
+#include <stdexcept>
+#include <string>
+
+#include "core/yaml_fields.hpp"
+#include "loggers/deploy/deployment.hpp"
+#include "loggers/deploy/status.hpp"
+#include "loggers/deploy/systemd_units.hpp"
+
+namespace {
+void check(bool ok, const char* what) {
+  if (!ok) throw std::logic_error(what);
+}
+}  // namespace
+
+extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+  const std::string text(reinterpret_cast<const char*>(data), size);
+  ips::deploy::Deployment d;
+  try {
+    d = ips::deploy::parse_deployment(ips::parse_yaml_text(text, "fuzz.yaml"));
+  } catch (const ips::ConfigError&) {
+    return 0;
+  }
+  std::vector<ips::deploy::Heard> heard;
+  for (const ips::deploy::Host& h : d.hosts) {
+    std::map<std::string, std::string> resolved;
+    std::set<std::string> started;
+    for (const ips::deploy::Process& p : h.processes) {
+      for (const std::string& a : p.after) check(started.count(a) > 0, "started before its after");
+      started.insert(p.name);
+      resolved[p.name] = ips::deploy::resolve_command(p.command, "/opt/bin",
+                                                      [](const std::string&) { return true; });
+      ips::deploy::Heard x;
+      x.health.source = p.command;
+      x.health.host = h.hostname;
+      x.health.pid = static_cast<int32_t>(heard.size() + 1);
+      x.host_utime = 1'000'000;
+      heard.push_back(x);
+    }
+    const auto units = ips::deploy::systemd_units(d, h, resolved);
+    check(units.size() == h.processes.size() + 1, "a unit per process and the target");
+  }
+  const auto report = ips::deploy::compare_status(&d, heard, 1'500'000);
+  (void)ips::deploy::format_status(report);
+  (void)ips::deploy::status_json(report);
+  return 0;
+}
