@@ -196,11 +196,21 @@ int Node::run() {
 
 void Node::report_error(const std::string& text) {
   last_error_ = text;
-  if (state_ == health_t::STATE_OK) state_ = health_t::STATE_DEGRADED;
+  last_error_at_ = std::chrono::steady_clock::now();
+  if (state_ == health_t::STATE_OK) {
+    state_ = health_t::STATE_DEGRADED;
+    degraded_by_error_ = true;
+  }
   if (error_log_limit_.allow(wall_utime_now())) spdlog::warn("{}: {}", name_, printable(text));
 }
 
 void Node::publish_health() {
+  if (degraded_by_error_ && std::chrono::duration<double>(std::chrono::steady_clock::now() -
+                                                          last_error_at_)
+                                    .count() >= degraded_hold_s_) {
+    state_ = health_t::STATE_OK;
+    degraded_by_error_ = false;
+  }
   health_t h;
   h.utime = wall_utime_now();
   h.source = name_;

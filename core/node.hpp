@@ -99,9 +99,16 @@ class Node {
   int stop_signal() const { return stop_signal_; }
 
   NodeCounters& counters() { return counters_; }
-  // Reports an error in health_t (state degraded) and logs it at a rate limit.
+  // Reports an error in health_t and logs it at a rate limit. A process in STATE_OK becomes
+  // STATE_DEGRADED, and returns to STATE_OK once no error has been reported for
+  // degraded_hold_s (last_error keeps the text). A state set with set_state() is kept as set.
   void report_error(const std::string& text);
-  void set_state(int8_t state) { state_ = state; }
+  void set_state(int8_t state) {
+    state_ = state;
+    degraded_by_error_ = false;
+  }
+  // How long a reported error keeps the process degraded (60 s; tests shorten it).
+  void set_degraded_hold(double seconds) { degraded_hold_s_ = seconds; }
   void publish_health();
 
  private:
@@ -133,6 +140,9 @@ class Node {
   int stop_signal_ = 0;
   int8_t state_ = health_t::STATE_OK;
   std::string last_error_;
+  bool degraded_by_error_ = false;  // state_ is DEGRADED because of report_error()
+  std::chrono::steady_clock::time_point last_error_at_;
+  double degraded_hold_s_ = 60.0;
   std::string health_channel_;
   std::string host_;
   std::chrono::steady_clock::time_point start_time_;

@@ -13,7 +13,10 @@
 
 #include <unistd.h>
 
+#include <chrono>
 #include <csignal>
+#include <thread>
+#include <vector>
 
 namespace ips {
 namespace {
@@ -105,6 +108,37 @@ TEST(Node, HealthReportsCountersAndErrors) {
   EXPECT_EQ(health[0].state, health_t::STATE_DEGRADED);
   EXPECT_EQ(health[0].last_error, "something broke");
   EXPECT_GT(health[0].pid, 0);
+}
+
+TEST(Node, DegradedByAnErrorReturnsToOkAfterTheHoldButAStateSetByHandStays) {
+  Node node("recovering", memq());
+  node.set_degraded_hold(0.2);
+  std::vector<health_t> health;
+  node.subscribe<health_t>("HEALTH", [&](const health_t& h, const std::string&) { health.push_back(h); });
+  const auto publish = [&] {
+    node.publish_health();
+    node.spin_once(50);
+    return health.back();
+  };
+  node.report_error("a bad message");
+  EXPECT_EQ(publish().state, health_t::STATE_DEGRADED);
+  std::this_thread::sleep_for(std::chrono::milliseconds(120));
+  node.report_error("another");  // the hold counts from the latest error
+  std::this_thread::sleep_for(std::chrono::milliseconds(120));
+  EXPECT_EQ(publish().state, health_t::STATE_DEGRADED);
+  std::this_thread::sleep_for(std::chrono::milliseconds(150));
+  const health_t back = publish();
+  EXPECT_EQ(back.state, health_t::STATE_OK);
+  EXPECT_EQ(back.last_error, "another");  // the text stays for the record
+  // A driver that says its device is down stays degraded, errors or not.
+  node.set_state(health_t::STATE_DEGRADED);
+  std::this_thread::sleep_for(std::chrono::milliseconds(250));
+  EXPECT_EQ(publish().state, health_t::STATE_DEGRADED);
+  // An error while starting keeps it starting.
+  node.set_state(health_t::STATE_STARTING);
+  node.report_error("before the site");
+  std::this_thread::sleep_for(std::chrono::milliseconds(250));
+  EXPECT_EQ(publish().state, health_t::STATE_STARTING);
 }
 
 TEST(Node, TimerFires) {
