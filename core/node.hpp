@@ -103,6 +103,12 @@ class Node {
   // STATE_DEGRADED, and returns to STATE_OK once no error has been reported for
   // degraded_hold_s (last_error keeps the text). A state set with set_state() is kept as set.
   void report_error(const std::string& text);
+  // The same, for a condition that lasts (a device away): the degradation does not wear off
+  // with time; the caller ends it with set_state() when the condition is over.
+  void report_lasting_error(const std::string& text) {
+    report_error(text);
+    degraded_by_error_ = false;
+  }
   void set_state(int8_t state) {
     state_ = state;
     degraded_by_error_ = false;

@@ -242,7 +242,7 @@ bool SerialLink::try_open(bool first) {
       return false;
     }
     just_gone_ = false;
-    node_.report_error("device " + options_.path +
+    node_.report_lasting_error("device " + options_.path +
                        (ever_open_ ? ": cannot reopen (" : " not available (") + error +
                        "); retrying every " + format_seconds(options_.reopen_s) + " s");
     return false;
@@ -289,7 +289,7 @@ void SerialLink::gone(const std::string& why) {
   port_.close();
   last_open_error_.clear();
   just_gone_ = true;
-  node_.report_error("device " + options_.path + " gone; retrying");
+  node_.report_lasting_error("device " + options_.path + " gone; retrying");
   spdlog::debug("{}: device {} gone ({}); retrying every {} s", node_.name(), options_.path, why,
                 format_seconds(options_.reopen_s));
   if (callbacks_.on_close) callbacks_.on_close();

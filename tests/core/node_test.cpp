@@ -134,6 +134,13 @@ TEST(Node, DegradedByAnErrorReturnsToOkAfterTheHoldButAStateSetByHandStays) {
   node.set_state(health_t::STATE_DEGRADED);
   std::this_thread::sleep_for(std::chrono::milliseconds(250));
   EXPECT_EQ(publish().state, health_t::STATE_DEGRADED);
+  // A lasting error (a device away) does not wear off; set_state() ends it.
+  node.set_state(health_t::STATE_OK);
+  node.report_lasting_error("device gone");
+  std::this_thread::sleep_for(std::chrono::milliseconds(250));
+  EXPECT_EQ(publish().state, health_t::STATE_DEGRADED);
+  node.set_state(health_t::STATE_OK);
+  EXPECT_EQ(publish().state, health_t::STATE_OK);
   // An error while starting keeps it starting.
   node.set_state(health_t::STATE_STARTING);
   node.report_error("before the site");
