@@ -8,25 +8,27 @@
 
 namespace ips::view {
 
-void BusFeed::feed(const std::string& channel, const void* data, size_t size,
-                   utime_t host_utime) {
+const char* BusFeed::feed(const std::string& channel, const void* data, size_t size,
+                          utime_t host_utime) {
   ++stats_.messages;
   model_.on_bytes(channel, size, host_utime);
   if (channel == channels_.site) {
     site_t site;
-    if (decode_message(site, data, size))
-      model_.on_site(site, host_utime);
-    else
+    if (!decode_message(site, data, size)) {
       ++stats_.undecodable;
-    return;
+      return "site_t";
+    }
+    model_.on_site(site, host_utime);
+    return nullptr;
   }
   if (channel == channels_.health) {
     health_t health;
-    if (decode_message(health, data, size))
-      model_.on_health(health, host_utime);
-    else
+    if (!decode_message(health, data, size)) {
       ++stats_.undecodable;
-    return;
+      return "health_t";
+    }
+    model_.on_health(health, host_utime);
+    return nullptr;
   }
   pose_t pose;
   if (decode_message(pose, data, size)) {
@@ -35,6 +37,7 @@ void BusFeed::feed(const std::string& channel, const void* data, size_t size,
   } else {
     ++stats_.other;
   }
+  return nullptr;
 }
 
 }  // namespace ips::view

@@ -28,7 +28,10 @@ struct FeedStats {
 class BusFeed {
  public:
   BusFeed(ViewModel& model, FeedChannels channels) : model_(model), channels_(std::move(channels)) {}
-  void feed(const std::string& channel, const void* data, size_t size, utime_t host_utime);
+  // nullptr, or the type ("site_t", "health_t") a message on the SITE or HEALTH channel did not
+  // decode as (also counted in stats().undecodable).
+  const char* feed(const std::string& channel, const void* data, size_t size,
+                   utime_t host_utime);
   const FeedStats& stats() const { return stats_; }
 
  private:

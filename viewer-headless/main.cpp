@@ -14,12 +14,9 @@
 #include <spdlog/spdlog.h>
 #include <unistd.h>
 
-#include <cerrno>
 #include <chrono>
-#include <cmath>
-#include <cstring>
 #include <cstdio>
-#include <fstream>
+#include <functional>
 #include <limits>
 #include <lcm/lcm-cpp.hpp>
 #include <memory>
@@ -38,6 +35,7 @@
 #include "core/svg_text.hpp"
 #include "core/text_escape.hpp"
 #include "core/time.hpp"
+#include "core/yaml_fields.hpp"
 #include "viewer-headless/bus_feed.hpp"
 #include "viewer-headless/png_output.hpp"
 #include "viewer-headless/svg_render.hpp"
@@ -104,37 +102,60 @@ void pin_site(ViewModel& model, const ips::CommonOptions& opts) {
   model.on_site(ips::site_to_msg(site, now, "--site " + opts.site_path), now);
 }
 
+// Every message on the bus into the feed, with the host time LCM received it; a SITE or
+// HEALTH message that is not its type is a parse error in this process's HEALTH.
+void feed_from_bus(ips::Node& node, BusFeed& feed) {
+  node.subscribe_raw(".*", [&node, &feed](const lcm::ReceiveBuffer* rbuf,
+                                         const std::string& channel) {
+    if (const char* type = feed.feed(channel, rbuf->data, static_cast<size_t>(rbuf->data_size),
+                                     rbuf->recv_utime)) {
+      ++node.counters().parse_errors;
+      node.report_error("channel " + ips::printable(channel) + ": a message that is not a " +
+                        type);
+    }
+  });
+}
+
 // A log fed into the model at its own pace: event k when (t_k - t_0) / speed has passed since
-// the start (speed <= 0: all at once). The model's clock is the log's.
+// the start (speed <= 0: all at once, in the constructor). The model's clock is the log's.
+// until_s >= 0 stops before the first event more than until_s after the first (cut()).
 class LogPlayback {
  public:
-  LogPlayback(std::unique_ptr<ips::LogInput> in, BusFeed& feed, double speed)
-      : in_(std::move(in)), feed_(feed), speed_(speed), start_(Clock::now()) {
+  // done_text: what LogInput::finish() says is done with what was read.
+  LogPlayback(std::unique_ptr<ips::LogInput> in, BusFeed& feed, double speed,
+              std::string done_text, double until_s = -1)
+      : in_(std::move(in)),
+        feed_(feed),
+        speed_(speed),
+        until_s_(until_s),
+        done_text_(std::move(done_text)),
+        start_(Clock::now()) {
     if (speed_ <= 0) advance();
   }
 
   // Feeds every event due now.
   void advance() {
     if (done_) return;
-    for (;;) {
-      if (!pending_) {
-        const ips::LogEvent* e = in_->next();
-        if (!e) {
-          finish();
-          return;
-        }
-        if (!first_) first_ = last_ = e->timestamp_us;
-        pending_ = Event{e->channel, std::vector<uint8_t>(e->data, e->data + e->size),
-                         e->timestamp_us};
-      }
-      if (speed_ > 0 && ips::view::seconds_between(pending_->utime, *first_) > elapsed_log_s())
-        return;
-      feed_.feed(pending_->channel, pending_->data.data(), pending_->data.size(),
-                 pending_->utime);
-      last_ = std::max(last_, pending_->utime);
-      ++events_;
+    if (pending_) {
+      if (!due(pending_->utime)) return;
+      take(pending_->channel, pending_->data.data(), pending_->data.size(), pending_->utime);
       pending_.reset();
     }
+    while (const ips::LogEvent* e = in_->next()) {
+      if (!first_) first_ = last_ = e->timestamp_us;
+      if (until_s_ >= 0 && ips::view::seconds_between(e->timestamp_us, *first_) > until_s_) {
+        cut_ = done_ = true;
+        return;
+      }
+      if (!due(e->timestamp_us)) {
+        pending_ = Event{e->channel, std::vector<uint8_t>(e->data, e->data + e->size),
+                         e->timestamp_us};
+        return;
+      }
+      take(e->channel, e->data, e->size, e->timestamp_us);
+    }
+    done_ = true;
+    readable_ = in_->finish(done_text_);
   }
 
   // The log time the page shows: the playback's cursor, or the last event's time at the end.
@@ -143,7 +164,12 @@ class LogPlayback {
     return std::max(last_, cursor());
   }
   bool done() const { return done_; }
+  // Stopped at until_s, before the end of the log.
+  bool cut() const { return cut_; }
+  // False when the file held bytes but no event (LogInput::finish() has said so).
+  bool readable() const { return readable_; }
   int64_t events() const { return events_; }
+  // From the first event to the last one fed.
   double seconds() const { return first_ ? ips::view::seconds_between(last_, *first_) : 0.0; }
 
  private:
@@ -153,6 +179,14 @@ class LogPlayback {
     std::vector<uint8_t> data;
     utime_t utime;
   };
+  void take(const std::string& channel, const uint8_t* data, size_t size, utime_t utime) {
+    feed_.feed(channel, data, size, utime);
+    last_ = std::max(last_, utime);
+    ++events_;
+  }
+  bool due(utime_t utime) const {
+    return speed_ <= 0 || ips::view::seconds_between(utime, *first_) <= elapsed_log_s();
+  }
   // Log seconds since the first event that the playback has reached.
   double elapsed_log_s() const {
     return std::chrono::duration<double>(Clock::now() - start_).count() * speed_;
@@ -164,22 +198,20 @@ class LogPlayback {
       t = std::numeric_limits<utime_t>::max();
     return t;
   }
-  void finish() {
-    done_ = true;
-    in_->finish("showing what was read");
-    std::fprintf(stderr, "%s: end of the log: %lld events over %.1f s; still serving its last state\n",
-                 kProgram, static_cast<long long>(events_), seconds());
-  }
 
   std::unique_ptr<ips::LogInput> in_;
   BusFeed& feed_;
   double speed_;
+  double until_s_;
+  std::string done_text_;
   Clock::time_point start_;
   std::optional<utime_t> first_;
   std::optional<Event> pending_;
   utime_t last_ = 0;
   int64_t events_ = 0;
   bool done_ = false;
+  bool cut_ = false;
+  bool readable_ = true;
 };
 
 bool loopback_address(const std::string& addr) { return addr.rfind("127.", 0) == 0; }
@@ -203,18 +235,18 @@ int serve(ips::CommonOptions opts, const ServeOptions& so, const MapOptions& mo)
   if (from_log) {
     auto in = ips::LogInput::open(kProgram, so.log);
     if (!in) return 2;
-    playback = std::make_unique<LogPlayback>(std::move(in), feed, so.speed);
-    node.add_timer(0.02, [&] { playback->advance(); });
-  } else {
-    node.subscribe_raw(".*", [&](const lcm::ReceiveBuffer* rbuf, const std::string& channel) {
-      const int64_t undecodable = feed.stats().undecodable;
-      feed.feed(channel, rbuf->data, static_cast<size_t>(rbuf->data_size), rbuf->recv_utime);
-      if (feed.stats().undecodable != undecodable) {
-        ++node.counters().parse_errors;
-        node.report_error("channel " + ips::printable(channel) + ": a message that is not a " +
-                          (channel == opts.channel(ips::channel::kSite) ? "site_t" : "health_t"));
-      }
+    playback = std::make_unique<LogPlayback>(std::move(in), feed, so.speed, "showing what was read");
+    bool announced = false;
+    node.add_timer(0.02, [&, announced]() mutable {
+      playback->advance();
+      if (!playback->done() || announced) return;
+      announced = true;
+      std::fprintf(stderr,
+                   "%s: end of the log: %lld events over %.1f s; still serving its last state\n",
+                   kProgram, static_cast<long long>(playback->events()), playback->seconds());
     });
+  } else {
+    feed_from_bus(node, feed);
   }
   // What the model could not keep (full tables, overlong ids, non-finite positions) shows in
   // HEALTH as drops, with the counts in last_error.
@@ -293,14 +325,19 @@ int serve(ips::CommonOptions opts, const ServeOptions& so, const MapOptions& mo)
   server.route("GET", "/favicon.ico", [](const http::HttpRequest&, const std::string&, utime_t) {
     return http::HttpReply{204, "text/plain", "", ""};
   });
+  // An update of the page: the snapshot without trails, then the map.
+  const auto update = [&](const std::function<void(const char* event, const std::string&)>& send) {
+    send("state", model.json(now(), false));
+    send("map", ips::view::render_svg(model, svg_options));
+  };
   server.stream("/events", [&](http::HttpServer::StreamId id) {
-    server.send_event(id, "state", model.json(now(), false));
-    server.send_event(id, "map", ips::view::render_svg(model, svg_options));
+    update([&](const char* event, const std::string& data) { server.send_event(id, event, data); });
   });
   node.add_timer(1.0 / so.update_hz, [&] {
     if (server.stream_count("/events") == 0) return;
-    server.broadcast("/events", "state", model.json(now(), false));
-    server.broadcast("/events", "map", ips::view::render_svg(model, svg_options));
+    update([&](const char* event, const std::string& data) {
+      server.broadcast("/events", event, data);
+    });
   });
 
   std::string error;
@@ -343,31 +380,17 @@ int render(const ips::CommonOptions& opts, const RenderOptions& ro, const MapOpt
   pin_site(model, opts);
   std::string when;
   if (!ro.log.empty()) {
-    const auto in = ips::LogInput::open(kProgram, ro.log);
+    auto in = ips::LogInput::open(kProgram, ro.log);
     if (!in) return 2;
-    std::optional<utime_t> first;
-    utime_t last = 0;
-    bool cut = false;
-    while (const ips::LogEvent* e = in->next()) {
-      if (!first) first = last = e->timestamp_us;
-      if (ro.at_s >= 0 && ips::view::seconds_between(e->timestamp_us, *first) > ro.at_s) {
-        cut = true;
-        break;
-      }
-      feed.feed(e->channel, e->data, e->size, e->timestamp_us);
-      last = std::max(last, e->timestamp_us);
-    }
-    if (!cut && !in->finish("rendering what was read")) return 2;
-    const double span = first ? ips::view::seconds_between(last, *first) : 0.0;
-    if (ro.at_s >= 0 && !cut)
+    const LogPlayback log(std::move(in), feed, 0, "rendering what was read", ro.at_s);
+    if (!log.readable()) return 2;
+    if (ro.at_s >= 0 && !log.cut())
       std::fprintf(stderr, "%s: warning: --at %g s is past the end of the log (%.1f s): rendering its end\n",
-                   kProgram, ro.at_s, span);
-    when = ips::svg::format("at %.1f s of the log", span);
+                   kProgram, ro.at_s, log.seconds());
+    when = ips::svg::format("at %.1f s of the log", log.seconds());
   } else {
     ips::Node node(kProgram, opts);
-    node.subscribe_raw(".*", [&](const lcm::ReceiveBuffer* rbuf, const std::string& channel) {
-      feed.feed(channel, rbuf->data, static_cast<size_t>(rbuf->data_size), rbuf->recv_utime);
-    });
+    feed_from_bus(node, feed);
     node.add_timer(ro.live_s, [&] { node.stop(); });
     const int rc = node.run();
     if (rc != 0) return rc;
@@ -382,14 +405,9 @@ int render(const ips::CommonOptions& opts, const RenderOptions& ro, const MapOpt
       ips::print_fatal(kProgram, error);
       return 1;
     }
-  } else {
-    std::ofstream f(ro.out, std::ios::binary | std::ios::trunc);
-    f << svg;
-    f.close();
-    if (!f) {
-      ips::print_fatal(kProgram, "cannot write '" + ro.out + "': " + std::strerror(errno));
-      return 1;
-    }
+  } else if (!ips::write_text_file(ro.out, svg, error)) {
+    ips::print_fatal(kProgram, error);
+    return 1;
   }
   std::set<std::string> tags;
   for (const auto& [key, track] : model.tracks()) tags.insert(track.tag);

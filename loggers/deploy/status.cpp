@@ -57,13 +57,17 @@ StatusReport compare_status(const Deployment* d, const std::vector<Heard>& heard
       for (const Process& p : host.processes) {
         const std::string program = base_name(p.command);
         const bool on_bus = program.rfind("ips-", 0) == 0;
-        if (!on_bus) {
+        // A row for a process of the file with no HEALTH to show.
+        const auto unheard = [&](const char* state) {
           StatusRow r;
           r.host = host.name;
           r.process = p.name;
           r.program = program;
-          r.state = "no HEALTH";
+          r.state = state;
           report.rows.push_back(r);
+        };
+        if (!on_bus) {
+          unheard("no HEALTH");
           continue;
         }
         ++report.expected;
@@ -74,12 +78,7 @@ StatusReport compare_status(const Deployment* d, const std::vector<Heard>& heard
             break;
           }
         if (!match) {
-          StatusRow r;
-          r.host = host.name;
-          r.process = p.name;
-          r.program = program;
-          r.state = "MISSING";
-          report.rows.push_back(r);
+          unheard("MISSING");
           ++report.missing;
           continue;
         }

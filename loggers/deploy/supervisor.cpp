@@ -199,6 +199,9 @@ void Supervisor::close_output(Child& c) {
 }
 
 void Supervisor::reaped(Child& c, int status) {
+  // Output written just before the exit is still in the pipe: print it first.
+  if (c.out_fd >= 0) on_output(c);
+  close_output(c);
   const Process& p = *c.process;
   const double ran = std::chrono::duration<double>(Clock::now() - c.started).count();
   const bool clean = WIFEXITED(status) && WEXITSTATUS(status) == 0;
@@ -232,12 +235,7 @@ void Supervisor::tick() {
     if (c->pid > 0) {
       int status = 0;
       const pid_t r = ::waitpid(c->pid, &status, WNOHANG);
-      if (r == c->pid) {
-        // Output written just before the exit is still in the pipe: print it first.
-        if (c->out_fd >= 0) on_output(*c);
-        close_output(*c);
-        reaped(*c, status);
-      }
+      if (r == c->pid) reaped(*c, status);
     } else if (c->restart_pending && Clock::now() >= c->restart_at) {
       c->restart_pending = false;
       spawn(*c);
@@ -264,11 +262,9 @@ void Supervisor::stop() {
       if (c->pid <= 0) continue;
       int status = 0;
       if (::waitpid(c->pid, &status, WNOHANG) == c->pid) {
-        if (c->out_fd >= 0) on_output(*c);
-        close_output(*c);
-        const std::string name = c->process->name;
         reaped(*c, status);
-        print_("[ips-deploy] " + name + " stopped (" + describe_wait_status(status) + ")");
+        print_("[ips-deploy] " + c->process->name + " stopped (" + describe_wait_status(status) +
+               ")");
         continue;
       }
       running = true;

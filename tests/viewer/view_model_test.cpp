@@ -627,11 +627,11 @@ TEST(BusFeed, DecodesSitesHealthAndPosesOnAnyChannelAndCountsTheRest) {
   r.anchor_id = "A1";
   const auto rb = encoded(r);
   feed.feed("UWB_RANGE", rb.data(), rb.size(), kT0 + 4);
-  // A pose on HEALTH and a range on SITE are refused by the fingerprint, and counted.
-  feed.feed("HEALTH", p.data(), p.size(), kT0 + 5);
-  feed.feed("SITE", rb.data(), rb.size(), kT0 + 6);
+  // A pose on HEALTH and a range on SITE are refused by the fingerprint, counted, and named.
+  EXPECT_STREQ(feed.feed("HEALTH", p.data(), p.size(), kT0 + 5), "health_t");
+  EXPECT_STREQ(feed.feed("SITE", rb.data(), rb.size(), kT0 + 6), "site_t");
   const uint8_t junk[3] = {1, 2, 3};
-  feed.feed("POSE_UWB", junk, sizeof junk, kT0 + 7);
+  EXPECT_EQ(feed.feed("POSE_UWB", junk, sizeof junk, kT0 + 7), nullptr);  // not a pose: other
 
   EXPECT_EQ(feed.stats().messages, 8);
   EXPECT_EQ(feed.stats().poses, 2);
