@@ -337,21 +337,22 @@ std::string format_candump_line(const CanFrame& f, utime_t utime, std::string_vi
   else
     std::snprintf(buf, sizeof buf, "%03X#", static_cast<unsigned>(f.id & kMaxStandardId));
   out += buf;
-  if (f.remote && !f.fd) {
-    out += 'R';
-    if (f.len > 0 && f.len <= kMaxClassicLen) out += static_cast<char>('0' + f.len);
-    return out;
-  }
   const size_t max = f.fd ? kMaxFdLen : kMaxClassicLen;
   const size_t len = f.len > max ? max : f.len;
-  if (f.fd) {
-    std::snprintf(buf, sizeof buf, "#%X", static_cast<unsigned>(f.fd_flags & 0xF));
-    out += buf;
+  if (f.remote && !f.fd) {
+    out += 'R';
+    if (len > 0) out += static_cast<char>('0' + len);
+  } else {
+    if (f.fd) {
+      std::snprintf(buf, sizeof buf, "#%X", static_cast<unsigned>(f.fd_flags & 0xF));
+      out += buf;
+    }
+    for (size_t i = 0; i < len; ++i) {
+      std::snprintf(buf, sizeof buf, "%02X", static_cast<unsigned>(f.data[i]));
+      out += buf;
+    }
   }
-  for (size_t i = 0; i < len; ++i) {
-    std::snprintf(buf, sizeof buf, "%02X", static_cast<unsigned>(f.data[i]));
-    out += buf;
-  }
+  // A raw DLC 9..15 on 8 bytes, after the data or the remote request's length (can-utils).
   if (!f.fd && len == 8 && f.len8_dlc >= 9 && f.len8_dlc <= 15) {
     std::snprintf(buf, sizeof buf, "_%X", static_cast<unsigned>(f.len8_dlc));
     out += buf;

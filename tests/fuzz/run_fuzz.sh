@@ -1,16 +1,25 @@
 #!/usr/bin/env bash
 # run_fuzz.sh FUZZER SEED_DIR SECONDS: runs a libFuzzer target for a bounded time on a scratch
 # corpus seeded from SEED_DIR (the source tree is never written). Fails on any finding.
-set -euo pipefail
+set -uo pipefail
 fuzzer=$1 seeds=$2 seconds=$3
 corpus=$(mktemp -d)
 artifacts=$(mktemp -d)
 trap 'rm -rf "$corpus"' EXIT
 "$fuzzer" -max_total_time="$seconds" -rss_limit_mb=2048 -timeout=10 -print_final_stats=1 \
-  -artifact_prefix="$artifacts/" "$corpus" "$seeds" 2>&1 | tail -15
-status=${PIPESTATUS[0]}
+  -artifact_prefix="$artifacts/" "$corpus" "$seeds" >"$artifacts/fuzz.log" 2>&1
+status=$?
 if [ "$status" -ne 0 ]; then
-  echo "fuzz finding kept in $artifacts:"; ls -la "$artifacts"
+  # The cause first (a CI log keeps only the end of the output), then the input that found it.
+  grep -m 6 -E 'ERROR:|what\(\):|runtime error:|SUMMARY:' "$artifacts/fuzz.log" || true
+  tail -15 "$artifacts/fuzz.log"
+  for f in "$artifacts"/crash-* "$artifacts"/leak-* "$artifacts"/timeout-* "$artifacts"/oom-*; do
+    [ -f "$f" ] || continue
+    echo "finding $f ($(stat -c %s "$f") bytes), first 256 bytes:"
+    head -c 256 "$f" | od -A d -c | head -20
+  done
+  echo "fuzz finding kept in $artifacts"
   exit "$status"
 fi
+tail -15 "$artifacts/fuzz.log"
 rm -rf "$artifacts"

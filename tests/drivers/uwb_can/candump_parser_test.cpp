@@ -213,7 +213,15 @@ TEST(CandumpParser, FormatsLinesItReadsBack) {
   f.fd_flags = 1;
   EXPECT_EQ(format_candump_line(f, 1767225600051000, "can0"),
             "(1767225600.051000) can0 303##10100DE27000057C8");
-  CanFrame others[5];
+  CanFrame remote8;
+  remote8.remote = true;
+  remote8.id = 0x302;
+  remote8.len = 8;
+  remote8.len8_dlc = 14;
+  // A remote request keeps its raw DLC (fuzz_candump_line found it dropped).
+  EXPECT_EQ(format_candump_line(remote8, 1767225600051000, "can0"),
+            "(1767225600.051000) can0 302#R8_E");
+  CanFrame others[6];
   others[0].extended = true;
   others[0].id = 0x1ABCDEF0;
   others[0].len = 2;
@@ -228,6 +236,7 @@ TEST(CandumpParser, FormatsLinesItReadsBack) {
   others[3].len8_dlc = 9;
   others[4] = f;
   others[4].len = 64;
+  others[5] = remote8;
   for (const CanFrame& o : others) {
     const std::string text = format_candump_line(o, 1436509052249713, "vcan0");
     const auto l = frame_line(text);
