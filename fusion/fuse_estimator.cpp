@@ -90,10 +90,10 @@ FuseParams parse_fuse_params(const YamlField& s) {
 FuseEstimator::FuseEstimator(PoseSink sink, std::string source_name)
     : sink_(std::move(sink)),
       source_(std::move(source_name)),
-      tdoa_([](const pose_t&) {}, [](const clock_t&) {}, source_),
-      aoa_([](const pose_t&) {}, source_) {
-  tdoa_.set_epoch_sink([this](const uwb_tdoa::TdoaEpoch& e) { on_tdoa_epoch(e); }, false);
-  aoa_.set_epoch_sink([this](const aoa::AoaEpochAngles& e) { on_aoa_epoch(e); }, false);
+      tdoa_([this](const pose_t& p) { on_hosted_fix(p); }, [](const clock_t&) {}, source_),
+      aoa_([this](const pose_t& p) { on_hosted_fix(p); }, source_) {
+  tdoa_.set_epoch_sink([this](const uwb_tdoa::TdoaEpoch& e) { on_tdoa_epoch(e); }, true);
+  aoa_.set_epoch_sink([this](const aoa::AoaEpochAngles& e) { on_aoa_epoch(e); }, true);
 }
 
 void FuseEstimator::set_site(const Site& site) {
@@ -505,7 +505,8 @@ void FuseEstimator::on_rx(const uwb_rx_t& m) {
 void FuseEstimator::on_tdoa_epoch(const uwb_tdoa::TdoaEpoch& e) {
   Track* t = track_for(*e.tag_id, e.utime);
   // A blink says where the tag is only relative to the anchors' hyperboloids: the track starts
-  // from something else (ranges, a start pose, POSE_TDOA).
+  // from something else (ranges, a start pose, POSE_TDOA, or the hosted tracker's fix from the
+  // blinks: on_hosted_fix, right after this).
   if (!t || !t->initialised) return;
   // The nearest anchors to the estimate, nearest first (the most likely direct paths).
   std::array<int, uwb_tdoa::kMaxEpochArrivals> order;
@@ -535,7 +536,8 @@ void FuseEstimator::on_aoa(const ble_aoa_t& m) {
 
 void FuseEstimator::on_aoa_epoch(const aoa::AoaEpochAngles& e) {
   Track* t = track_for(*e.tag_id, e.utime);
-  // Bearings alone start no track here (ips-aoa's fix, POSE_AOA, can).
+  // Angles start no track here: the hosted tracker's fix from them does (on_hosted_fix), as
+  // POSE_AOA can.
   if (!t || !t->initialised || e.picked->empty()) return;
   Measurement m;
   m.kind = Measurement::Kind::kAngles;
@@ -550,6 +552,19 @@ void FuseEstimator::on_aoa_epoch(const aoa::AoaEpochAngles& e) {
   }
   t->tight_aoa = true;
   add(*e.tag_id, *t, m);
+}
+
+void FuseEstimator::on_hosted_fix(const pose_t& m) {
+  // The epoch went through on_tdoa_epoch / on_aoa_epoch first, so the track exists unless the tag
+  // was refused (too many tags).
+  const auto it = tracks_.find(m.tag_id);
+  if (it == tracks_.end() || it->second.initialised) return;
+  const bool horizontal_only = (m.status & pose_t::STATUS_2D) != 0;
+  const auto cov = pose_covariance(m, horizontal_only);
+  if (!finite_position(m) || !cov) return;
+  const Eigen::Vector3d p(m.position[0], m.position[1], m.position[2]);
+  start(m.tag_id, it->second, m.utime, p, std::sqrt(std::max(cov->trace() / 3.0, 1e-6)));
+  ++stats_.hosted_starts;
 }
 
 void FuseEstimator::on_dead_reckoning(const pose_t& m, DisplacementSource src, uint32_t bit) {

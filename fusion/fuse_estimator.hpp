@@ -15,6 +15,9 @@
 //    updates the filter; a tag with angles no longer takes POSE_AOA;
 //  - barometric heights (ALTITUDE, models/height.hpp);
 //  - other estimators' poses, loosely coupled (models/position.hpp; POSE_TDOA, POSE_AOA).
+// A track starts from the site's start pose, a multilateration of ranges, a dead-reckoning
+// position, another estimator's pose, or, for a tag with only blinks or only angles, the fix of
+// the hosted ips-uwb-tdoa / ips-aoa tracker: ips-fuse needs no other estimator running.
 // Every update is gated. Messages are fused in time order as they arrive; a late one (up to
 // max_delay_s behind the tag's newest) rolls the track back to the snapshot before it and the
 // later ones are fused again, so a displacement that covers ranges already fused still moves the
@@ -104,6 +107,7 @@ struct FuseStats {
   int64_t dropped_other_source = 0;  // displacements of a second source for the same tag
   int64_t rollbacks = 0;             // late messages fused in order
   int64_t initialisations = 0;
+  int64_t hosted_starts = 0;  // of those, from the hosted TDoA/AoA trackers (blinks or angles only)
   int64_t restarts = 0;
   int64_t poses_out = 0;
 };
@@ -224,13 +228,17 @@ class FuseEstimator {
   bool have_site_for_raw();
   void on_tdoa_epoch(const uwb_tdoa::TdoaEpoch& e);
   void on_aoa_epoch(const aoa::AoaEpochAngles& e);
+  // A pose of the hosted TDoA or AoA tracker: starts the tag's track if nothing has yet.
+  void on_hosted_fix(const pose_t& m);
 
   PoseSink sink_;
   std::string source_;
   std::optional<Site> site_;
   FuseParams params_;
-  uwb_tdoa::TdoaEstimator tdoa_;  // clocks and blinks only (no tracker)
-  aoa::AoaEstimator aoa_;         // calibrated angles only (no tracker)
+  // ips-uwb-tdoa's clocks and blinks, ips-aoa's calibrated angles; their trackers only start
+  // tracks (on_hosted_fix).
+  uwb_tdoa::TdoaEstimator tdoa_;
+  aoa::AoaEstimator aoa_;
   std::vector<aoa::AnchorFrame> frames_;  // per site anchor
   std::map<std::string, Track> tracks_;
   FuseStats stats_;
