@@ -31,11 +31,13 @@ Node::Node(std::string name, const CommonOptions& opts)
       health_channel_(opts.channel(channel::kHealth)),
       host_(host_name()),
       start_time_(std::chrono::steady_clock::now()) {
-  // SIGINT/SIGTERM arrive through a signalfd so that the loop ends cleanly between messages.
+  // SIGINT/SIGTERM/SIGHUP (the terminal closed) arrive through a signalfd so that the loop ends
+  // cleanly between messages.
   sigset_t mask;
   sigemptyset(&mask);
   sigaddset(&mask, SIGINT);
   sigaddset(&mask, SIGTERM);
+  sigaddset(&mask, SIGHUP);
   sigprocmask(SIG_BLOCK, &mask, &old_sigmask_);
   signal_fd_ = signalfd(-1, &mask, SFD_CLOEXEC | SFD_NONBLOCK);
   if (signal_fd_ < 0) {
@@ -204,6 +206,20 @@ void Node::report_error(const std::string& text) {
   if (error_log_limit_.allow(wall_utime_now())) spdlog::warn("{}: {}", name_, printable(text));
 }
 
+void Node::report_lasting_error(const std::string& key, const std::string& text) {
+  last_error_ = text;
+  lasting_.insert(key);
+  if (error_log_limit_.allow(wall_utime_now())) spdlog::warn("{}: {}", name_, printable(text));
+}
+
+void Node::end_lasting_error(const std::string& key) {
+  if (lasting_.erase(key) == 0 || !lasting_.empty()) return;
+  if (degraded_by_error_) {
+    state_ = health_t::STATE_OK;
+    degraded_by_error_ = false;
+  }
+}
+
 void Node::publish_health() {
   if (degraded_by_error_ && std::chrono::duration<double>(std::chrono::steady_clock::now() -
                                                           last_error_at_)
@@ -216,7 +232,7 @@ void Node::publish_health() {
   h.source = name_;
   h.host = host_;
   h.pid = static_cast<int32_t>(getpid());
-  h.state = state_;
+  h.state = state();
   h.msgs_in = counters_.msgs_in;
   h.msgs_out = counters_.msgs_out;
   h.parse_errors = counters_.parse_errors;

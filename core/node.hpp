@@ -1,7 +1,7 @@
 #pragma once
 // The node runtime every process is built on: owns the LCM instance, offers typed subscribe and
 // publish with message counters, runs one poll loop over the LCM fd, timers and signals, ends
-// cleanly (status 0) on SIGINT/SIGTERM, and publishes health_t on HEALTH at 1 Hz.
+// cleanly (status 0) on SIGINT/SIGTERM/SIGHUP, and publishes health_t on HEALTH at 1 Hz.
 #include <chrono>
 #include <cstdint>
 #include <functional>
@@ -12,6 +12,7 @@
 
 #include <list>
 #include <memory>
+#include <set>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -88,14 +89,14 @@ class Node {
   void watch_fd(int fd, short events, std::function<void(short revents)> fn);
   void unwatch_fd(int fd);
 
-  // Runs the loop until SIGINT/SIGTERM or stop(). Returns the process exit status: 0, or 1 when
-  // the LCM socket failed.
+  // Runs the loop until SIGINT/SIGTERM/SIGHUP or stop(). Returns the process exit status: 0, or 1
+  // when the LCM socket failed.
   int run();
   // Handles what is pending now, waiting at most `timeout_ms`; false once stopped.
   bool spin_once(int timeout_ms);
   void stop() { stopping_ = true; }
   bool stopping() const { return stopping_; }
-  // The signal that stopped the loop (SIGINT, SIGTERM), or 0.
+  // The signal that stopped the loop (SIGINT, SIGTERM, SIGHUP), or 0.
   int stop_signal() const { return stop_signal_; }
 
   NodeCounters& counters() { return counters_; }
@@ -103,15 +104,20 @@ class Node {
   // STATE_DEGRADED, and returns to STATE_OK once no error has been reported for
   // degraded_hold_s (last_error keeps the text). A state set with set_state() is kept as set.
   void report_error(const std::string& text);
-  // The same, for a condition that lasts (a device away): the degradation does not wear off
-  // with time; the caller ends it with set_state() when the condition is over.
-  void report_lasting_error(const std::string& text) {
-    report_error(text);
-    degraded_by_error_ = false;
-  }
+  // A condition that lasts, named by `key` (a device away: its path): the text becomes
+  // last_error and is logged, and a process otherwise in STATE_OK is STATE_DEGRADED while any
+  // such condition is on, however long, whatever set_state() says.
+  void report_lasting_error(const std::string& key, const std::string& text);
+  // The condition is over. Once none is left the process is back to its own state, and a
+  // degradation by errors reported meanwhile ends too (they mostly came of the device going).
+  void end_lasting_error(const std::string& key);
   void set_state(int8_t state) {
     state_ = state;
     degraded_by_error_ = false;
+  }
+  // What HEALTH says: the state, degraded while a lasting condition is on.
+  int8_t state() const {
+    return state_ == health_t::STATE_OK && !lasting_.empty() ? health_t::STATE_DEGRADED : state_;
   }
   // How long a reported error keeps the process degraded (60 s; tests shorten it).
   void set_degraded_hold(double seconds) { degraded_hold_s_ = seconds; }
@@ -147,6 +153,7 @@ class Node {
   int8_t state_ = health_t::STATE_OK;
   std::string last_error_;
   bool degraded_by_error_ = false;  // state_ is DEGRADED because of report_error()
+  std::set<std::string> lasting_;  // report_lasting_error() keys not ended yet
   std::chrono::steady_clock::time_point last_error_at_;
   double degraded_hold_s_ = 60.0;
   std::string health_channel_;

@@ -242,16 +242,18 @@ bool SerialLink::try_open(bool first) {
       return false;
     }
     just_gone_ = false;
-    node_.report_lasting_error("device " + options_.path +
-                       (ever_open_ ? ": cannot reopen (" : " not available (") + error +
-                       "); retrying every " + format_seconds(options_.reopen_s) + " s");
+    node_.report_lasting_error(options_.path,
+                               "device " + options_.path +
+                                   (ever_open_ ? ": cannot reopen (" : " not available (") +
+                                   error + "); retrying every " +
+                                   format_seconds(options_.reopen_s) + " s");
     return false;
   }
   last_open_error_.clear();
   ever_open_ = true;
   ++opens_;
   spdlog::info("{}: opened {} at {} baud, 8N1 raw", node_.name(), options_.path, options_.baud);
-  node_.set_state(health_t::STATE_OK);
+  node_.end_lasting_error(options_.path);
   node_.watch_fd(port_.fd(), POLLIN, [this](short revents) { on_readable(revents); });
   if (callbacks_.on_open) callbacks_.on_open();
   return true;
@@ -289,7 +291,7 @@ void SerialLink::gone(const std::string& why) {
   port_.close();
   last_open_error_.clear();
   just_gone_ = true;
-  node_.report_lasting_error("device " + options_.path + " gone; retrying");
+  node_.report_lasting_error(options_.path, "device " + options_.path + " gone; retrying");
   spdlog::debug("{}: device {} gone ({}); retrying every {} s", node_.name(), options_.path, why,
                 format_seconds(options_.reopen_s));
   if (callbacks_.on_close) callbacks_.on_close();
@@ -305,7 +307,8 @@ void SerialLink::check_path() {
 bool SerialLink::write(std::string_view bytes) {
   std::string error;
   if (!port_.is_open()) {
-    node_.report_error("device " + options_.path + ": cannot write, not open");
+    // Part of the device being away: it ends when the device is back.
+    node_.report_lasting_error(options_.path, "device " + options_.path + ": cannot write, not open");
     return false;
   }
   if (!port_.write_all(bytes, 500, error)) {

@@ -130,19 +130,8 @@ int run(const ips::CommonOptions& opts, Settings& s) {
     if (auto line = bad_reports.admit(sensor_id, text, ips::wall_utime_now()))
       node.report_error(*line);
   };
-  // HEALTH is degraded while any sensor is away, and ok again once all are back (SerialLink says
-  // ok when its own device returns, even while another is away).
-  bool someone_away = false;
-  auto update_state = [&] {
-    bool away = false;
-    for (const auto& st : iio) away = away || !st.sensor->present();
-    for (const auto& st : serial) away = away || !st->link || !st->link->is_open();
-    if (away)
-      node.set_state(ips::health_t::STATE_DEGRADED);
-    else if (someone_away)
-      node.set_state(ips::health_t::STATE_OK);
-    someone_away = away;
-  };
+  // HEALTH is degraded while any sensor is away, and ok again once all are back: each away
+  // sensor is a lasting error of the node (SerialLink's for serial ones, keyed by the path).
 
   for (const SensorSpec& spec : s.sensors) {
     if (spec.kind != SensorSpec::Kind::kSerial) continue;
@@ -169,11 +158,8 @@ int run(const ips::CommonOptions& opts, Settings& s) {
     st.link = std::make_unique<ips::SerialLink>(
         node, link_options,
         ips::SerialLink::Callbacks{
-            .on_open =
-                [&st, &update_state] {
-                  st.lines.reset();  // a partial line belongs to the device's previous life
-                  update_state();
-                },
+            // A partial line belongs to the device's previous life.
+            .on_open = [&st] { st.lines.reset(); },
             .on_bytes =
                 [&st, &bad_sample, on_line](std::string_view bytes, ips::utime_t utime) {
                   st.lines.feed(bytes, [&](std::string_view line) { on_line(line, utime); });
@@ -182,7 +168,7 @@ int run(const ips::CommonOptions& opts, Settings& s) {
                                                std::to_string(kMaxLineBytes) + " bytes from " +
                                                st.spec.id);
                 },
-            .on_close = [&update_state] { update_state(); },
+            .on_close = {},
         });
     serial.push_back(std::move(station));
   }
@@ -215,13 +201,13 @@ int run(const ips::CommonOptions& opts, Settings& s) {
             break;
           case IioSensor::Poll::Kind::kGone:
           case IioSensor::Poll::Kind::kMissing:
-            node.report_error(p.text);
+            node.report_lasting_error("iio:" + st.sensor->config().id, p.text);
             break;
           case IioSensor::Poll::Kind::kNothing:
             break;
         }
+        if (st.sensor->present()) node.end_lasting_error("iio:" + st.sensor->config().id);
       }
-      update_state();
     });
   }
   const int status = node.run();

@@ -84,8 +84,8 @@ void TcpClient::close_and_retry(const std::string& why) {
   if (was_connected && callbacks_.on_disconnect) callbacks_.on_disconnect(why);
   char delay[32];
   std::snprintf(delay, sizeof delay, "%.2g", backoff_s_);
-  node_.set_state(health_t::STATE_DEGRADED);
-  node_.report_error(endpoint() + ": " + why + "; reconnecting in " + delay + " s");
+  node_.report_lasting_error(endpoint(),
+                             endpoint() + ": " + why + "; reconnecting in " + delay + " s");
   next_attempt_ = Clock::now() + std::chrono::duration_cast<Clock::duration>(
                                      std::chrono::duration<double>(backoff_s_));
   retry_pending_ = true;
@@ -139,7 +139,7 @@ void TcpClient::on_connected() {
   connecting_ = false;
   connected_ = true;
   ++connections_;
-  node_.set_state(health_t::STATE_OK);
+  node_.end_lasting_error(endpoint());
   spdlog::info("{}: connected to {}", node_.name(), endpoint());
   if (callbacks_.on_connect) callbacks_.on_connect();
   node_.watch_fd(fd_, POLLIN, [this](short revents) { on_event(revents); });

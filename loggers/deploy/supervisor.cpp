@@ -2,8 +2,8 @@
 
 #include <fcntl.h>
 #include <signal.h>
-#include <spawn.h>
 #include <string.h>
+#include <sys/prctl.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -39,6 +39,69 @@ std::vector<std::string> child_environment(const std::map<std::string, std::stri
   }
   for (const auto& [k, v] : overrides) env.push_back(k + "=" + v);
   return env;
+}
+
+// Starts `path` (looked up in PATH without a '/') with stdout and stderr on `out_fd`, stdin on
+// /dev/null, in `dir` (if not empty), in its own process group, with default signal handling and
+// an empty mask (the node blocks SIGINT and SIGTERM for its signalfd, and ignores SIGPIPE; a
+// child would inherit both). The child gets SIGTERM when ips-deploy dies, however it dies
+// (PR_SET_PDEATHSIG): a SIGKILLed supervisor leaves no processes behind. posix_spawn cannot set
+// that, hence fork and exec; between them only async-signal-safe calls. Returns 0 and `pid`, or
+// the errno of what failed (the exec's comes back through a close-on-exec pipe).
+int start_child(const std::string& path, char* const argv[], char* const envp[], int out_fd,
+                const std::string& dir, pid_t& pid) {
+  int status_pipe[2];
+  if (pipe2(status_pipe, O_CLOEXEC) != 0) return errno;
+  const pid_t parent = ::getpid();
+  const bool search = path.find('/') == std::string::npos;
+  const char* file = path.c_str();
+  const char* cwd = dir.empty() ? nullptr : dir.c_str();
+  pid = ::fork();
+  if (pid < 0) {
+    const int err = errno;
+    ::close(status_pipe[0]);
+    ::close(status_pipe[1]);
+    return err;
+  }
+  if (pid == 0) {
+    auto fail = [&](int err) {
+      [[maybe_unused]] const ssize_t n = ::write(status_pipe[1], &err, sizeof err);
+      ::_exit(127);
+    };
+    if (::prctl(PR_SET_PDEATHSIG, SIGTERM) != 0) fail(errno);
+    if (::getppid() != parent) ::_exit(127);  // ips-deploy died before the prctl
+    ::setpgid(0, 0);
+    struct sigaction dfl = {};
+    dfl.sa_handler = SIG_DFL;
+    for (int sig : {SIGINT, SIGTERM, SIGPIPE, SIGCHLD, SIGHUP}) ::sigaction(sig, &dfl, nullptr);
+    sigset_t none;
+    sigemptyset(&none);
+    ::sigprocmask(SIG_SETMASK, &none, nullptr);
+    const int null_fd = ::open("/dev/null", O_RDONLY);
+    if (null_fd < 0 || ::dup2(null_fd, STDIN_FILENO) < 0 || ::dup2(out_fd, STDOUT_FILENO) < 0 ||
+        ::dup2(out_fd, STDERR_FILENO) < 0)
+      fail(errno);
+    if (cwd && ::chdir(cwd) != 0) fail(errno);
+    if (search)
+      ::execvpe(file, argv, envp);
+    else
+      ::execve(file, argv, envp);
+    fail(errno);
+  }
+  ::setpgid(pid, pid);  // also here: a stop right after the start reaches the whole group
+  ::close(status_pipe[1]);
+  int err = 0;
+  ssize_t n;
+  do n = ::read(status_pipe[0], &err, sizeof err);
+  while (n < 0 && errno == EINTR);
+  ::close(status_pipe[0]);
+  if (n == static_cast<ssize_t>(sizeof err)) {
+    int status = 0;
+    ::waitpid(pid, &status, 0);
+    pid = -1;
+    return err != 0 ? err : ENOEXEC;
+  }
+  return 0;
 }
 
 }  // namespace
@@ -116,25 +179,6 @@ void Supervisor::spawn(Child& c) {
                                       std::chrono::duration<double>(c.backoff.next_delay(0)));
     return;
   }
-  posix_spawn_file_actions_t fa;
-  posix_spawn_file_actions_init(&fa);
-  posix_spawn_file_actions_adddup2(&fa, fds[1], STDOUT_FILENO);
-  posix_spawn_file_actions_adddup2(&fa, fds[1], STDERR_FILENO);
-  posix_spawn_file_actions_addopen(&fa, STDIN_FILENO, "/dev/null", O_RDONLY, 0);
-  if (!d_.working_dir.empty()) posix_spawn_file_actions_addchdir_np(&fa, d_.working_dir.c_str());
-  posix_spawnattr_t attr;
-  posix_spawnattr_init(&attr);
-  // Its own process group; default signal handling and an empty mask (the node blocks SIGINT and
-  // SIGTERM for its signalfd, and a child would inherit that).
-  sigset_t none, defaults;
-  sigemptyset(&none);
-  sigemptyset(&defaults);
-  for (int sig : {SIGINT, SIGTERM, SIGPIPE, SIGCHLD, SIGHUP}) sigaddset(&defaults, sig);
-  posix_spawnattr_setsigmask(&attr, &none);
-  posix_spawnattr_setsigdefault(&attr, &defaults);
-  posix_spawnattr_setpgroup(&attr, 0);
-  posix_spawnattr_setflags(&attr, POSIX_SPAWN_SETPGROUP | POSIX_SPAWN_SETSIGMASK |
-                                      POSIX_SPAWN_SETSIGDEF);
   std::vector<std::string> args = {c.path};
   args.insert(args.end(), p.args.begin(), p.args.end());
   std::vector<char*> argv;
@@ -144,10 +188,7 @@ void Supervisor::spawn(Child& c) {
   std::vector<char*> envp;
   for (auto& e : env) envp.push_back(e.data());
   envp.push_back(nullptr);
-  pid_t pid = -1;
-  const int rc = posix_spawnp(&pid, c.path.c_str(), &fa, &attr, argv.data(), envp.data());
-  posix_spawn_file_actions_destroy(&fa);
-  posix_spawnattr_destroy(&attr);
+  const int rc = start_child(c.path, argv.data(), envp.data(), fds[1], d_.working_dir, c.pid);
   ::close(fds[1]);
   ++c.runs;
   c.started = Clock::now();
@@ -158,7 +199,7 @@ void Supervisor::spawn(Child& c) {
     reaped(c, W_EXITCODE(127, 0));
     return;
   }
-  c.pid = pid;
+  const pid_t pid = c.pid;
   c.out_fd = fds[0];
   fcntl(c.out_fd, F_SETFL, fcntl(c.out_fd, F_GETFL) | O_NONBLOCK);
   node_.watch_fd(c.out_fd, POLLIN, [this, &c](short) { on_output(c); });

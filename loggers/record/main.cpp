@@ -183,6 +183,7 @@ int main(int argc, char** argv) {
     if (stopped_by.empty())
       stopped_by = node.stop_signal() == SIGTERM  ? "SIGTERM"
                    : node.stop_signal() == SIGINT ? "SIGINT"
+                   : node.stop_signal() == SIGHUP ? "SIGHUP"
                                                   : "LCM failure";
     try {
       recorder->stop(stopped_by);

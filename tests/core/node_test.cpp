@@ -134,13 +134,28 @@ TEST(Node, DegradedByAnErrorReturnsToOkAfterTheHoldButAStateSetByHandStays) {
   node.set_state(health_t::STATE_DEGRADED);
   std::this_thread::sleep_for(std::chrono::milliseconds(250));
   EXPECT_EQ(publish().state, health_t::STATE_DEGRADED);
-  // A lasting error (a device away) does not wear off; set_state() ends it.
+  // A lasting error (a device away) does not wear off, nor does set_state() end it: only the
+  // end of every such condition does (two devices: one back is not enough).
   node.set_state(health_t::STATE_OK);
-  node.report_lasting_error("device gone");
+  node.report_lasting_error("/dev/ttyACM0", "device /dev/ttyACM0 gone");
+  node.report_lasting_error("/dev/ttyACM1", "device /dev/ttyACM1 gone");
   std::this_thread::sleep_for(std::chrono::milliseconds(250));
+  health_t away = publish();
+  EXPECT_EQ(away.state, health_t::STATE_DEGRADED);
+  EXPECT_EQ(away.last_error, "device /dev/ttyACM1 gone");
+  node.set_state(health_t::STATE_OK);  // e.g. the site arrived
   EXPECT_EQ(publish().state, health_t::STATE_DEGRADED);
-  node.set_state(health_t::STATE_OK);
-  EXPECT_EQ(publish().state, health_t::STATE_OK);
+  node.report_error("a partial line at the unplug");  // degraded by an error meanwhile
+  node.end_lasting_error("/dev/ttyACM0");
+  EXPECT_EQ(publish().state, health_t::STATE_DEGRADED);
+  node.end_lasting_error("/dev/ttyACM0");  // twice: no harm
+  node.end_lasting_error("/dev/ttyACM1");
+  EXPECT_EQ(publish().state, health_t::STATE_OK);  // every device back: the errors end too
+  // A state set by hand is not the lasting conditions' to end.
+  node.report_lasting_error("/dev/ttyACM0", "device /dev/ttyACM0 gone");
+  node.set_state(health_t::STATE_ERROR);
+  node.end_lasting_error("/dev/ttyACM0");
+  EXPECT_EQ(publish().state, health_t::STATE_ERROR);
   // An error while starting keeps it starting.
   node.set_state(health_t::STATE_STARTING);
   node.report_error("before the site");

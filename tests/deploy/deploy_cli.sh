@@ -8,7 +8,8 @@
 #  3. run: output prefixed with the process name, a failing process restarted with a doubling
 #     back-off (0.2, 0.4, 0.8 s), a process that ignores SIGINT killed after its stop timeout,
 #     SIGTERM stopping everything with status 0, environment and working directory;
-#  4. run ends by itself, status 0, when every process has ended cleanly and none restarts.
+#  4. run ends by itself, status 0, when every process has ended cleanly and none restarts;
+#  5. SIGHUP stops everything cleanly; a SIGKILLed ips-deploy leaves no process running.
 set -euo pipefail
 BIN=$(cd "$1" && pwd)
 HERE=$(cd "$(dirname "$0")" && pwd)
@@ -138,4 +139,71 @@ set -e
 [ "$rc" -eq 1 ] || fail "a process that failed for good: status $rc (expected 1): $(cat "$WORK/fails.out")"
 grep -q 'one exited with status 1 after .*; not restarted (restart: no)' "$WORK/fails.out" ||
   fail "$(cat "$WORK/fails.out")"
+# A program that cannot be executed (its interpreter is missing): said, and a failure.
+printf '#!/no/such/interpreter\n' >"$WORK/broken.sh"
+chmod +x "$WORK/broken.sh"
+printf 'name: broken\nlcm_url: "memq://"\nhosts:\n  - name: pc\n    processes:\n      - {name: b, command: %s, restart: "no"}\n' \
+  "$WORK/broken.sh" >"$WORK/broken.yaml"
+set +e
+timeout 20 "$D" run "$WORK/broken.yaml" --host pc >"$WORK/broken.out" 2>&1
+rc=$?
+set -e
+[ "$rc" -eq 1 ] || fail "a program that cannot run: status $rc (expected 1): $(cat "$WORK/broken.out")"
+grep -q "^\[ips-deploy\] b: cannot run $WORK/broken.sh: No such file or directory$" "$WORK/broken.out" ||
+  fail "$(cat "$WORK/broken.out")"
+
+# --- 5: nothing is left behind ---------------------------------------------------------------
+# SIGHUP (the terminal closed) stops everything as SIGTERM does; a SIGKILLed ips-deploy takes its
+# processes with it (PR_SET_PDEATHSIG: SIGTERM from the kernel).
+cat >"$WORK/left.yaml" <<EOF
+name: left
+lcm_url: "memq://"
+hosts:
+  - name: pc
+    processes:
+      - {name: twr, command: ips-uwb-twr}
+      - {name: loop, command: /bin/sh, args: [-c, "while true; do sleep 0.1; done"]}
+EOF
+started_pids() {  # the pids ips-deploy started, from its output
+  sed -n 's/^\[ips-deploy\] started [a-z]* (pid \([0-9]*\)).*/\1/p' "$1"
+}
+running() {  # running PID...: true while one of them is alive and not a zombie
+  local p
+  for p in "$@"; do
+    [ -r "/proc/$p/stat" ] && [ "$(awk '{print $3}' "/proc/$p/stat" 2>/dev/null)" != Z ] && return 0
+  done
+  return 1
+}
+for how in HUP KILL; do
+  out="$WORK/left-$how.out"
+  "$D" run "$WORK/left.yaml" --host pc --bin-dir "$BIN" >"$out" 2>&1 & deploy=$!
+  for _ in $(seq 100); do
+    [ "$(started_pids "$out" | wc -l)" -eq 2 ] && break
+    sleep 0.1
+  done
+  kids=$(started_pids "$out" | tr '\n' ' ')
+  [ "$(echo $kids | wc -w)" -eq 2 ] || fail "SIG$how: not started: $(cat "$out")"
+  sleep 0.3
+  kill -"$how" "$deploy"
+  rc=0
+  wait "$deploy" || rc=$?
+  for _ in $(seq 50); do
+    running $kids || break
+    sleep 0.1
+  done
+  # shellcheck disable=SC2086
+  if running $kids; then
+    ps -o pid,stat,cmd -p "$(echo $kids | tr ' ' ,)" || true
+    kill -KILL $kids 2>/dev/null || true
+    fail "SIG$how to ips-deploy left its processes running"
+  fi
+  if [ "$how" = HUP ]; then
+    [ "$rc" -eq 0 ] || fail "ips-deploy exited with status $rc after SIGHUP: $(cat "$out")"
+    grep -q '^\[ips-deploy\] twr stopped (status 0)$' "$out" || fail "SIGHUP: $(cat "$out")"
+  else
+    [ "$rc" -eq 137 ] || fail "ips-deploy exited with status $rc after SIGKILL"
+  fi
+  echo "SIG$how to ips-deploy: its processes ($kids) are gone"
+done
+
 echo "deploy_cli: ok"
