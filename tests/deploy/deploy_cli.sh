@@ -132,10 +132,13 @@ EOF
 timeout 20 "$D" run "$WORK/once.yaml" --host pc >"$WORK/once.out" 2>&1 || fail "run once: $(cat "$WORK/once.out")"
 grep -q 'every process has ended' "$WORK/once.out" || fail "run once: $(cat "$WORK/once.out")"
 sed 's|command: /bin/true, restart: on-failure|command: /bin/false, restart: "no"|' "$WORK/once.yaml" >"$WORK/fails.yaml"
-set +e
-timeout 20 "$D" run "$WORK/fails.yaml" --host pc >"$WORK/fails.out" 2>&1
-rc=$?
-set -e
+run_to_end() {  # run_to_end NAME: ips-deploy run $WORK/NAME.yaml to its end; its status in rc
+  set +e
+  timeout 20 "$D" run "$WORK/$1.yaml" --host pc >"$WORK/$1.out" 2>&1
+  rc=$?
+  set -e
+}
+run_to_end fails
 [ "$rc" -eq 1 ] || fail "a process that failed for good: status $rc (expected 1): $(cat "$WORK/fails.out")"
 grep -q 'one exited with status 1 after .*; not restarted (restart: no)' "$WORK/fails.out" ||
   fail "$(cat "$WORK/fails.out")"
@@ -144,10 +147,7 @@ printf '#!/no/such/interpreter\n' >"$WORK/broken.sh"
 chmod +x "$WORK/broken.sh"
 printf 'name: broken\nlcm_url: "memq://"\nhosts:\n  - name: pc\n    processes:\n      - {name: b, command: %s, restart: "no"}\n' \
   "$WORK/broken.sh" >"$WORK/broken.yaml"
-set +e
-timeout 20 "$D" run "$WORK/broken.yaml" --host pc >"$WORK/broken.out" 2>&1
-rc=$?
-set -e
+run_to_end broken
 [ "$rc" -eq 1 ] || fail "a program that cannot run: status $rc (expected 1): $(cat "$WORK/broken.out")"
 grep -q "^\[ips-deploy\] b: cannot run $WORK/broken.sh: No such file or directory$" "$WORK/broken.out" ||
   fail "$(cat "$WORK/broken.out")"
