@@ -45,6 +45,7 @@ std::map<std::string, std::string> parse_environment(const YamlField& f) {
   if (!f.defined()) return env;
   if (!f.is_map()) f.fail("expected a map of NAME: value");
   for (const auto& kv : f.node()) {
+    if (!kv.first.IsScalar()) f.fail("a name must be text, not a list or a map");
     const std::string key = kv.first.as<std::string>();
     const YamlField value = f[key];
     if (!valid_env_name(key)) value.fail("not a valid environment variable name");

@@ -376,6 +376,15 @@ hosts:
     processes: [{name: p, command: ips-sim}]
 )"),
               HasSubstr("test.yaml:3: environment.1ST: not a valid environment variable name"));
+  // A list as a name (fuzz_deploy_file found it aborting ips-deploy).
+  EXPECT_THAT(parse_error(R"(name: lab
+lcm_url: "udpm://239.255.76.67:7667?ttl=1"
+environment: {GREETING: hi, [-c, e]: x}
+hosts:
+  - name: a
+    processes: [{name: p, command: ips-sim}]
+)"),
+              HasSubstr("test.yaml:3: environment: a name must be text, not a list or a map"));
 }
 
 TEST(DeploymentFileErrors, RelativeWorkingDir) {
