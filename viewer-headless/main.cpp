@@ -7,13 +7,17 @@
 //   ips-view LOG [--speed 4]          a log, played into the page (--speed 0: all at once)
 //   ips-view render LOG --out map.svg [--at S]   the map at S seconds into the log (default: end)
 //   ips-view render --live 3 --out map.png       the map after listening to the bus for 3 s
+//   ips-view render --live 3 --wait-site 30 ...  the same, listening on (at most 30 s more)
+//                                                until a SITE message has come
 //
 // HTTP (docs/viewer.md): GET / (the page), /view.js, /view.css, /api/state (JSON snapshot;
 // ?trails=0 without trails), /api/info, /map.svg, and /events (Server-Sent Events: "state" and
 // "map" a few times a second). Everything is served by this process: no internet needed.
+#include <fmt/format.h>
 #include <spdlog/spdlog.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <functional>
@@ -80,6 +84,7 @@ struct ServeOptions {
 struct RenderOptions {
   std::string log;
   double live_s = 0;
+  double wait_site_s = 0;  // with live_s: listen up to this much longer for a SITE message
   std::string out;
   double at_s = -1;  // < 0: the end of the log
   double zoom = 1.0;
@@ -371,6 +376,10 @@ int render(const ips::CommonOptions& opts, const RenderOptions& ro, const MapOpt
     ips::print_fatal(kProgram, "render: give either a LOG or --live SECONDS (see --help)");
     return 2;
   }
+  if (ro.wait_site_s > 0 && ro.live_s <= 0) {
+    ips::print_fatal(kProgram, "render: --wait-site goes with --live (a LOG has its own SITE)");
+    return 2;
+  }
   if (!ro.force && ::access(ro.out.c_str(), F_OK) == 0) {
     ips::print_fatal(kProgram, "'" + ro.out + "' exists (--force to overwrite)");
     return 2;
@@ -391,11 +400,39 @@ int render(const ips::CommonOptions& opts, const RenderOptions& ro, const MapOpt
   } else {
     ips::Node node(kProgram, opts);
     feed_from_bus(node, feed);
-    node.add_timer(ro.live_s, [&] { node.stop(); });
+    const auto start = std::chrono::steady_clock::now();
+    auto listened_s = [&] {
+      return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    };
+    bool waited = false;
+    if (ro.wait_site_s > 0) {
+      // A simulator or a site server repeats SITE every few seconds: listen past --live until
+      // one has come, for at most --wait-site more; the timer's period bounds the overshoot.
+      node.add_timer(std::min(ro.live_s, 0.05), [&] {
+        const double t = listened_s();
+        if (t < ro.live_s) return;
+        if (!model.has_site() && t < ro.live_s + ro.wait_site_s) {
+          waited = true;
+          return;
+        }
+        node.stop();
+      });
+    } else {
+      node.add_timer(ro.live_s, [&] { node.stop(); });
+    }
     const int rc = node.run();
     if (rc != 0) return rc;
     if (node.stop_signal() != 0) return 0;  // interrupted: nothing written
-    when = ips::svg::format("after %g s of the live bus", ro.live_s);
+    const double listened = listened_s();
+    if (ro.wait_site_s > 0 && !model.has_site()) {
+      ips::print_fatal(kProgram, fmt::format("no SITE message on {} within {:.1f} s (--live {:g}, "
+                                             "--wait-site {:g}): nothing written",
+                                             opts.channel(ips::channel::kSite), listened,
+                                             ro.live_s, ro.wait_site_s));
+      return 1;
+    }
+    when = waited ? fmt::format("after {:.1f} s of the live bus (waited for the site)", listened)
+                  : ips::svg::format("after %g s of the live bus", ro.live_s);
   }
 
   const std::string svg = ips::view::render_svg(model, mo.svg());
@@ -463,6 +500,11 @@ int main(int argc, char** argv) {
       ->check(CLI::NonNegativeNumber);
   render_cmd->add_option("--live", ro.live_s, "listen to the bus for S seconds, then draw")
       ->check(CLI::PositiveNumber);
+  render_cmd->add_option("--wait-site", ro.wait_site_s,
+                         "with --live: when no SITE message has come after --live S, listen on "
+                         "until one does, at most this many seconds more (none by then: an "
+                         "error, nothing written)")
+      ->check(CLI::Range(0.0, 3600.0));
   render_cmd->add_option("--zoom", ro.zoom, "PNG: scale factor")->check(CLI::Range(0.1, 20.0))
       ->capture_default_str();
   render_cmd->add_flag("--force", ro.force, "overwrite --out when it exists");

@@ -6,7 +6,9 @@
 #  2. Debian's headless Chromium, driven through chromedriver, loads the page, waits for T1 to
 #     move on the map and in the table, checks the tables and that the tag named with markup is
 #     only text, and saves a screenshot to BUILD/test-output/viewer-live.png;
-#  3. `ips-view render --live 2` draws the bus to SVG.
+#  3. `ips-view render --live 2 --wait-site 60` draws the bus to SVG (ips-sim repeats SITE every
+#     5 s: render listens on until one has come).
+# Every wait is for a condition (a process on HEALTH, the page's state, a SITE), bounded by 60 s.
 # Exit 77 (skipped) when no network namespace can be made here, or Chromium is not installed.
 set -euo pipefail
 BIN=$(cd "$1" && pwd)
@@ -34,31 +36,41 @@ assert text.count(tag) == 2, 'lab.yaml changed shape: the test cannot add its ta
 open(sys.argv[2], 'w').write(text)
 EOF
 
-"$BIN/ips-bus-check" --timeout 3 || fail "multicast does not loop back inside the namespace"
+"$BIN/ips-bus-check" --timeout 30 || fail "multicast does not loop back inside the namespace"
 "$BIN/ips-uwb-twr" --log-level warn & twr=$!; pids+=($twr)
 "$BIN/ips-view" --log-level warn 2>"$WORK/view.err" & view=$!; pids+=($view)
-"$BIN/ips-bus-check" --wait-for ips-uwb-twr --wait-for ips-view --timeout 20 ||
+"$BIN/ips-bus-check" --wait-for ips-uwb-twr --wait-for ips-view --timeout 60 ||
   fail "ips-uwb-twr or ips-view did not come up: $(cat "$WORK/view.err")"
 grep -q '^ips-view: serving http://127.0.0.1:8080/ (live bus)' "$WORK/view.err" ||
   fail "ips-view's first line: $(cat "$WORK/view.err")"
+# No SITE on the bus yet: render --wait-site gives up after its bound, writes nothing, status 1.
+rc=0
+"$BIN/ips-view" render --live 0.2 --wait-site 0.3 --out "$WORK/nosite.svg" 2>"$WORK/render.err" ||
+  rc=$?
+[ "$rc" -eq 1 ] && [ ! -e "$WORK/nosite.svg" ] &&
+  grep -Eq '^ips-view: error: no SITE message on SITE within [0-9.]+ s \(--live 0\.2, --wait-site 0\.3\): nothing written$' \
+    "$WORK/render.err" ||
+  fail "render --wait-site without a SITE: status $rc: $(cat "$WORK/render.err")"
+echo "ok: $(cat "$WORK/render.err")"
 "$BIN/ips-sim" --scenario "$WORK/lab-markup.yaml" --duration 300 --log-level warn & sim=$!
 pids+=($sim)
 chromedriver --port=9515 >"$WORK/chromedriver.log" 2>&1 & driver=$!; pids+=($driver)
-for _ in $(seq 100); do
-  python3 -c 'import urllib.request; urllib.request.urlopen("http://127.0.0.1:9515/status", timeout=1)' 2>/dev/null && break
+deadline=$((SECONDS + 60))
+until python3 -c 'import urllib.request; urllib.request.urlopen("http://127.0.0.1:9515/status", timeout=5)' 2>/dev/null; do
+  [ "$SECONDS" -lt "$deadline" ] || fail "chromedriver did not answer within 60 s: $(cat "$WORK/chromedriver.log")"
   sleep 0.1
 done
-# Let the first estimates arrive.
-sleep 2
 
+# endpoints --mode live first waits (at most 60 s) for the site and T1 on every channel.
 python3 "$HERE/viewer_checks.py" endpoints http://127.0.0.1:8080/ --mode live
 python3 "$HERE/viewer_checks.py" browser http://127.0.0.1:8080/ --webdriver http://127.0.0.1:9515 \
   --screenshot "$OUT/viewer-live.png" --payload "$PAYLOAD"
 
-"$BIN/ips-view" render --live 2 --out "$WORK/live.svg" 2>"$WORK/render.err" ||
+"$BIN/ips-view" render --live 2 --wait-site 60 --out "$WORK/live.svg" 2>"$WORK/render.err" ||
   fail "render --live: $(cat "$WORK/render.err")"
-grep -q 'wrote .*live.svg: site lab, .* estimates of 2 tags on 3 channels, after 2 s of the live bus' \
+grep -Eq 'wrote .*live.svg: site lab, .* estimates of 2 tags on 3 channels, after [0-9.]+ s of the live bus' \
   "$WORK/render.err" || fail "render --live summary: $(cat "$WORK/render.err")"
+grep 'wrote .*live.svg' "$WORK/render.err"
 python3 - "$WORK/live.svg" "$PAYLOAD" <<'EOF'
 import sys, xml.etree.ElementTree as ET
 S = '{http://www.w3.org/2000/svg}'

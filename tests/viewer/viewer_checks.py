@@ -5,7 +5,8 @@
       every HTTP route: the page and its files (with their security headers), /api/info,
       /api/state (with and without trails), /map.svg (well-formed XML), the event stream,
       HEAD, and the refusals (404, 405 with Allow). With --log: the served state holds every
-      TRUTH message of the log (its count) and ended where the log ends.
+      TRUTH message of the log (its count) and ended where the log ends. With --mode live it
+      first waits (at most 60 s) for the site and tag T1 on every --channels.
   viewer_checks.py browser URL --webdriver URL --screenshot PNG --payload TEXT
       drives Debian's headless Chromium through chromedriver (W3C WebDriver over HTTP): loads the
       page, waits for tag T1 on TRUTH and POSE_UWB, checks that it moves in the table and on the
@@ -60,7 +61,7 @@ def get_json(url):
         fail(f'GET {url}: not JSON ({e}): {body[:200]!r}')
 
 
-def read_events(base, want, timeout=10):
+def read_events(base, want, timeout=60):
     """The first events of /events, read off a raw socket: [(name, data)] until every name in
     `want` was seen."""
     u = urllib.parse.urlparse(base)
@@ -136,6 +137,16 @@ def endpoints(a):
     info = get_json(base + '/api/info')
     check(info.get('program') == 'ips-view' and info.get('mode') == a.mode, f'/api/info: {info}')
 
+    def live_ready(s):
+        tracks = {(t['channel'], t['tag']) for t in s.get('tracks', [])}
+        truth = [t for t in s.get('tracks', []) if (t['channel'], t['tag']) == ('TRUTH', 'T1')]
+        return (s.get('site') and all((ch, 'T1') in tracks for ch in a.channels.split(',')) and
+                truth and len(truth[0].get('trail', [])) >= 2)
+    if a.mode == 'live':
+        t0 = time.time()
+        poll(lambda: get_json(base + '/api/state'), live_ready, 60,
+             f'the site and T1 on {a.channels}')
+        print(f'live: the site and T1 on {a.channels} after {time.time() - t0:.1f} s')
     state = get_json(base + '/api/state')
     for k in ('site', 'anchors', 'tracks', 'channels', 'processes', 'stats'):
         check(k in state, f'/api/state: no "{k}"')
@@ -273,22 +284,27 @@ def browser(a):
         t0 = time.time()
         rows = poll(lambda: wd.js(TABLE_JS),
                     lambda rows: xy(rows, 'TRUTH', 'T1') and xy(rows, 'POSE_UWB', 'T1'),
-                    30, 'the page shows T1 on TRUTH and POSE_UWB')
+                    60, 'the page shows T1 on TRUTH and POSE_UWB')
         print(f'page shows T1 after {time.time() - t0:.1f} s: {len(rows)} estimate rows')
         first = xy(rows, 'TRUTH', 'T1')
-        first_marker = poll(lambda: marker(wd.js(MARKERS_JS), 'TRUTH', 'T1'), bool, 10,
+        first_marker = poll(lambda: marker(wd.js(MARKERS_JS), 'TRUTH', 'T1'), bool, 60,
                             'the map draws TRUTH T1')
         # The walker goes at 1 m/s: within a few seconds the table and the map must follow.
         moved = poll(lambda: wd.js(TABLE_JS),
                      lambda rows: xy(rows, 'TRUTH', 'T1') and
                      math.dist(xy(rows, 'TRUTH', 'T1'), first) >= 1.0,
-                     10, 'TRUTH T1 moves 1 m in the table')
-        truth, est = xy(moved, 'TRUTH', 'T1'), xy(moved, 'POSE_UWB', 'T1')
-        moved_marker = marker(wd.js(MARKERS_JS), 'TRUTH', 'T1')
-        check(moved_marker and math.dist(moved_marker, first_marker) >= 10,
-              f'TRUTH T1 on the map stayed at {first_marker} (now {moved_marker})')
-        # The table shows one snapshot: the estimate is within a metre of the truth.
-        check(math.dist(truth, est) <= 1.0, f'POSE_UWB T1 {est} is far from TRUTH T1 {truth}')
+                     60, 'TRUTH T1 moves 1 m in the table')
+        # The map is redrawn apart from the table: it follows within the same bound.
+        moved_marker = poll(lambda: marker(wd.js(MARKERS_JS), 'TRUTH', 'T1'),
+                            lambda m: m and math.dist(m, first_marker) >= 10, 60,
+                            f'TRUTH T1 moves 10 px on the map from {first_marker}')
+        # One snapshot of the table: the estimate within a metre of the truth (a snapshot
+        # taken while the estimator is a moment behind on a loaded machine is taken again).
+        near = poll(lambda: wd.js(TABLE_JS),
+                    lambda rows: xy(rows, 'TRUTH', 'T1') and xy(rows, 'POSE_UWB', 'T1') and
+                    math.dist(xy(rows, 'TRUTH', 'T1'), xy(rows, 'POSE_UWB', 'T1')) <= 1.0,
+                    60, 'POSE_UWB T1 within 1 m of TRUTH T1 in the table')
+        truth, est = xy(near, 'TRUTH', 'T1'), xy(near, 'POSE_UWB', 'T1')
         print(f'T1 moved {math.dist(first, truth):.2f} m in the table, '
               f'{math.dist(first_marker, moved_marker):.0f} px on the map; '
               f'POSE_UWB {est} vs TRUTH {truth}')
@@ -298,10 +314,15 @@ def browser(a):
         by_name = {c[0]: c for c in channels}
         for ch in ('SITE', 'TRUTH', 'UWB_RANGE', 'POSE_UWB', 'HEALTH'):
             check(ch in by_name, f'channel table has no {ch}: {sorted(by_name)}')
-        check(float(by_name['UWB_RANGE'][2]) >= 5, f'UWB_RANGE at {by_name["UWB_RANGE"][2]} Hz')
+        # The rate is measured over the last seconds: a stall of the simulator lowers it a while.
+        channels = poll(lambda: wd.js("return [...document.querySelectorAll('#channels tbody tr')]"
+                                      ".map(r => [...r.cells].map(c => c.textContent));"),
+                        lambda rows: any(r[0] == 'UWB_RANGE' and float(r[2]) >= 5 for r in rows),
+                        60, 'UWB_RANGE at 5 Hz or more in the channel table')
+        by_name = {c[0]: c for c in channels}
         procs = poll(lambda: wd.js("return [...document.querySelectorAll('#processes tbody tr')]"
                                    ".map(r => [...r.cells].map(c => c.textContent));"),
-                     lambda p: any(r[0] == 'ips-uwb-twr' and r[3] == 'ok' for r in p), 10,
+                     lambda p: any(r[0] == 'ips-uwb-twr' and r[3] == 'ok' for r in p), 60,
                      'the process table shows ips-uwb-twr ok')
         print(f'channel table: {len(channels)} rows (UWB_RANGE {by_name["UWB_RANGE"][2]} Hz); '
               f'processes: {sorted(r[0] for r in procs)}')
@@ -311,7 +332,7 @@ def browser(a):
         shown = poll(lambda: wd.js(
             "return [...document.querySelectorAll('#tracks tbody tr')].filter("
             "r => r.dataset.tag === " + json.dumps(payload) + ").map(r => r.cells[0].textContent);"),
-            lambda v: len(v) >= 1, 20, 'the page shows the tag named ' + payload)
+            lambda v: len(v) >= 1, 60, 'the page shows the tag named ' + payload)
         check(all(v == payload for v in shown), f'the tag shows as {shown}')
         # The map cuts long labels to "<start>...".
         on_map = wd.js("const p = " + json.dumps(payload) + ";"
