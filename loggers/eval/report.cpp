@@ -211,6 +211,10 @@ std::string map_figure(const ReportInput& in, const ReportOptions& opt) {
     entries.push_back(
         {"known point (static-point mode)", "",
          "<path d=\"M-6,-6 L6,6 M-6,6 L6,-6\" stroke=\"#000\" stroke-width=\"2.5\"/>"});
+  else if (!in.dwell.empty())
+    entries.push_back(
+        {"known points (dwell intervals)", "",
+         "<path d=\"M-6,-6 L6,6 M-6,6 L6,-6\" stroke=\"#000\" stroke-width=\"2.5\"/>"});
   else if (!truth_of(in).empty())
     entries.push_back({"truth (" + printable(in.truth_channel) + ")",
                        "stroke=\"#000\" stroke-opacity=\"0.55\"", ""});
@@ -222,9 +226,10 @@ std::string map_figure(const ReportInput& in, const ReportOptions& opt) {
   std::string s = svg::open(width, height, "Map: anchors, truth and estimated tracks");
   s += axes(f, xt, yt, "x (m)", "y (m)", "map-clip");
 
+  const bool known_points = in.static_point || !in.dwell.empty();
   s += "<g class=\"truth-tracks\" clip-path=\"url(#map-clip)\" fill=\"none\" stroke=\"#000\" "
        "stroke-opacity=\"0.55\" stroke-width=\"2\">\n";
-  if (!in.static_point) {
+  if (!known_points) {
     for (const auto& [tag, track] : truth_of(in)) {
       std::vector<Point> pts;
       pts.reserve(track.size());
@@ -249,7 +254,14 @@ std::string map_figure(const ReportInput& in, const ReportOptions& opt) {
   s += "</g>\n";
 
   // Labels last, so the tracks do not hide them.
-  if (!in.static_point) {
+  if (!in.dwell.empty()) {
+    for (const auto& d : in.dwell) {
+      if (!std::isfinite(d.x) || !std::isfinite(d.y)) continue;
+      const Point q = f.to_px(d.x, d.y);
+      s += "<path class=\"dwell-point\" transform=\"translate(" + px(q.x) + "," + px(q.y) +
+           ")\" d=\"M-6,-6 L6,6 M-6,6 L6,-6\" stroke=\"#000\" stroke-width=\"2.5\"/>\n";
+    }
+  } else if (!in.static_point) {
     for (const auto& [tag, track] : truth_of(in)) {
       if (track.empty()) continue;
       const Point q = f.to_px(track.front().x, track.front().y);
@@ -274,7 +286,7 @@ std::string map_figure(const ReportInput& in, const ReportOptions& opt) {
          xml_text(a.id) + (a.enabled ? "" : " (disabled)") + "</text>\n";
   }
   s += "</g>\n";
-  if (in.anchors.empty() && truth_of(in).empty() && in.series.empty() && !in.static_point)
+  if (in.anchors.empty() && truth_of(in).empty() && in.series.empty() && !known_points)
     s += no_data_note(f, "no anchors, truth or estimates in this log");
   s += legend(entries, f.left + f.width + kLegendGap, kMarginTop + 6);
   return s + "</svg>";
@@ -400,6 +412,39 @@ std::string stats_table(const ReportInput& in) {
   return s + "</tbody>\n</table>\n";
 }
 
+// --by channel: one row per channel, all its tags pooled.
+std::string channel_table(const ReportInput& in) {
+  std::string s =
+      "<table class=\"by-channel\">\n<thead><tr><th>channel</th><th>tags</th><th>count</th>"
+      "<th>mean</th><th>RMSE</th><th>median (CEP50)</th><th>p95 (CEP95)</th><th>max</th>"
+      "<th>vertical RMSE</th><th>not scored: non-finite</th></tr></thead>\n<tbody>\n";
+  for (const auto& r : in.channel_rows) {
+    s += "<tr><td>" + xml_text(r.channel) + "</td><td>" + std::to_string(r.tags) + "</td><td>" +
+         std::to_string(r.count) + "</td>";
+    for (double v : {r.mean_h, r.rmse_h, r.median_h, r.p95_h, r.max_h, r.rmse_v})
+      s += "<td>" + (r.count ? table_number(v) : std::string("-")) + "</td>";
+    s += "<td>" + std::to_string(r.non_finite) + "</td></tr>\n";
+  }
+  return s + "</tbody>\n</table>\n";
+}
+
+std::string altitude_table(const ReportInput& in) {
+  std::string s =
+      "<table class=\"altitude\">\n<thead><tr><th>channel</th><th>tag</th><th>count</th>"
+      "<th>bias</th><th>RMSE</th><th>p95</th><th>max</th><th>on the right floor</th>"
+      "<th>not scored: non-finite</th></tr></thead>\n<tbody>\n";
+  for (const auto& r : in.altitude_rows) {
+    s += "<tr><td>" + xml_text(r.channel) + "</td><td>" + xml_text(r.tag) + "</td><td>" +
+         std::to_string(r.count) + "</td>";
+    for (double v : {r.bias, r.rmse, r.p95, r.max}) s += "<td>" + table_number(v) + "</td>";
+    s += "<td>" + (r.floor_count ? format("%.3f", r.floor_share()) + " of " +
+                                       std::to_string(r.floor_count)
+                                 : std::string("-")) +
+         "</td><td>" + std::to_string(r.non_finite) + "</td></tr>\n";
+  }
+  return s + "</tbody>\n</table>\n";
+}
+
 }  // namespace
 
 std::string svg_document(const std::string& svg_element) {
@@ -429,6 +474,8 @@ PlotFrame map_frame(const ReportInput& in) {
   for (const auto& a : in.anchors) core.add(a.x, a.y);
   if (in.static_point) {
     core.add(in.static_point->x(), in.static_point->y());
+  } else if (!in.dwell.empty()) {
+    for (const auto& d : in.dwell) core.add(d.x, d.y);
   } else {
     for (const auto& [tag, track] : truth_of(in))
       for (const auto& p : track) core.add(p.x, p.y);
@@ -581,6 +628,10 @@ Report build_report(const ReportInput& in, const ReportOptions& options) {
     h += "<p>Static-point mode: every estimate is compared with the known point (" +
          format("%.3f", in.static_point->x()) + ", " + format("%.3f", in.static_point->y()) +
          ") m.</p>\n";
+  if (!in.dwell.empty())
+    h += "<p>Dwell mode: every estimate inside one of the " + std::to_string(in.dwell.size()) +
+         " dwell intervals is compared with that interval's known point; " +
+         std::to_string(in.unmatched) + " estimates outside every interval are not scored.</p>\n";
   if (in.series.empty())
     h += "<p class=\"note\">No pose estimates in this log: nothing to score.</p>\n";
   else if (std::none_of(in.rows.begin(), in.rows.end(),
@@ -591,6 +642,14 @@ Report build_report(const ReportInput& in, const ReportOptions& options) {
   h += "<h2>Statistics</h2>\n<p>Horizontal error (distance in x, y) and vertical RMSE, in "
        "metres; the same numbers as the text table.</p>\n" +
        stats_table(in);
+  if (!in.channel_rows.empty())
+    h += "<h2>Per channel</h2>\n<p>Every tag of a channel pooled (<code>--by channel</code>).</p>\n" +
+         channel_table(in);
+  if (!in.altitude_rows.empty())
+    h += "<h2>Altitude</h2>\n<p>Height error (estimate minus reference), in metres; bias is its "
+         "mean, p95 and max are of its absolute value; the share of estimates on the right floor "
+         "where the site gives floors.</p>\n" +
+         altitude_table(in);
   h += "<h2>Map</h2>\n<figure>\n" + r.map_svg + "\n</figure>\n";
   h += "<h2>Horizontal error against time</h2>\n<figure>\n" + r.error_time_svg + "\n</figure>\n";
   h += "<h2>Horizontal error CDF</h2>\n<figure>\n" + r.error_cdf_svg + "\n</figure>\n";

@@ -35,12 +35,16 @@ struct ReportInput {
   std::string log_path;
   std::string truth_channel = "TRUTH";
   std::vector<ErrorRow> rows;          // Evaluator::rows()
+  // Evaluator::rows_by_channel() with --by channel (a table of its own), else empty.
+  std::vector<ErrorRow> channel_rows;
+  std::vector<AltitudeRow> altitude_rows;  // Evaluator::altitude_rows() (or _by_channel())
   std::vector<EstimateSeries> series;  // Evaluator::estimate_series(), the same channels and tags
   // Evaluator::truth_tracks(), not copied (an hour of 10 tags at 50 Hz is 1.8 M samples); must
   // outlive build_report(). Null: no truth.
   const std::map<std::string, std::vector<PositionSample>>* truth = nullptr;
   std::vector<ReportAnchor> anchors;            // the log's last SITE message
   std::optional<Eigen::Vector3d> static_point;  // static-point mode: drawn instead of truth
+  std::vector<DwellInterval> dwell;             // dwell mode: the known points, drawn likewise
   // For the header.
   int64_t events = 0, truth_samples = 0, estimates = 0;
   size_t unmatched = 0;

@@ -3,8 +3,9 @@
 # map has one anchor marker per SITE anchor, at the position ips-export reads from the log; one
 # estimator polyline per row of --json in every figure; every CDF climbs from 0 to 1 in one step
 # per scored estimate; index.html holds the same figures inline, no script and no external asset,
-# and the table has the --json numbers; static-point mode; a log without estimates; --json and the
-# table unchanged by --report; an unwritable DIR gives one error line and status 2.
+# and its first table has the --json numbers (ALTITUDE has a table of its own); static-point mode;
+# a log without estimates; --json and the table unchanged by --report; an unwritable DIR gives one
+# error line and status 2.
 set -euo pipefail
 BIN=$(cd "$1" && pwd)
 WORK=$(mktemp -d)
@@ -135,6 +136,7 @@ class Page(html.parser.HTMLParser):
     def __init__(self):
         super().__init__()
         self.tags, self.bad, self.cells, self.row, self.title, self.where = [], [], [], None, '', []
+        self.tables = 0  # rows of the first table (the statistics) only
     def handle_starttag(self, tag, attrs):
         self.tags.append(tag)
         self.where.append(tag)
@@ -146,8 +148,11 @@ class Page(html.parser.HTMLParser):
         if tag == 'tr':
             self.row = []
     def handle_endtag(self, tag):
+        if tag == 'table':
+            self.tables += 1
         if tag == 'tr' and self.row is not None:
-            self.cells.append(self.row)
+            if self.tables == 0:
+                self.cells.append(self.row)
             self.row = None
         if self.where and self.where[-1] == tag:
             self.where.pop()

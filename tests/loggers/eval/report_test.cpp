@@ -447,5 +447,33 @@ TEST(Report, StaticPointModeDrawsTheKnownPointInsteadOfTruth) {
   EXPECT_EQ(polylines(r.error_cdf_svg, "cdf").at(0).size(), 4u);
 }
 
+TEST(Report, ChannelAndAltitudeTablesInNaturalOrder) {
+  Evaluator ev;
+  for (int i = 0; i <= 2; ++i)
+    for (const char* tag : {"T1-10", "T1-2", "T1"}) ev.add_truth(pose(i * 1'000'000, tag, 0, 0, 1));
+  for (const char* tag : {"T1-10", "T1-2", "T1"}) {
+    ev.add_estimate("POSE_UWB", pose(1'000'000, tag, 3, 4, 1));  // error 5 for every tag
+    ev.add_altitude("ALTITUDE", testing::altitude(1'000'000, tag, 1.25));  // 0.25 above
+  }
+  ReportInput in = input_from(ev);
+  in.channel_rows = ev.rows_by_channel();
+  in.altitude_rows = ev.altitude_rows();
+  const Report r = build_report(in);
+  const std::string& h = r.index_html;
+  // The statistics table and the altitude table list T1, T1-2, T1-10 in that order.
+  for (const std::string cls : {"<table>", "<table class=\"altitude\">"}) {
+    const size_t table = h.find(cls);
+    ASSERT_NE(table, std::string::npos) << cls;
+    const size_t t1 = h.find("<td>T1</td>", table), t2 = h.find("<td>T1-2</td>", table),
+                 t10 = h.find("<td>T1-10</td>", table);
+    EXPECT_LT(t1, t2) << cls;
+    EXPECT_LT(t2, t10) << cls;
+  }
+  EXPECT_NE(h.find("<td>POSE_UWB</td><td>3</td><td>3</td><td>5.000</td><td>5.000</td>"),
+            std::string::npos);
+  EXPECT_NE(h.find("<td>ALTITUDE</td><td>T1</td><td>1</td><td>0.250</td><td>0.250</td>"),
+            std::string::npos);
+}
+
 }  // namespace
 }  // namespace ips::eval
