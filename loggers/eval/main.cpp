@@ -349,9 +349,13 @@ int main(int argc, char** argv) {
     std::printf("], \"%s\": %zu, \"altitudes_unmatched\": %zu", ev.dwell_mode() ? "outside_dwell" : "unmatched",
                 ev.unmatched(), ev.altitudes_unmatched());
     if (window) {
-      std::printf(", \"window\": {\"from_utime\": %lld, \"to_utime\": %lld, \"outside\": %zu}",
-                  static_cast<long long>(window_from), static_cast<long long>(window_to),
-                  ev.outside_window());
+      // null for a bound not given (the start or the end of the log).
+      auto bound = [](bool given, ips::utime_t t) {
+        return given ? std::to_string(t) : std::string("null");
+      };
+      std::printf(", \"window\": {\"from_utime\": %s, \"to_utime\": %s, \"outside\": %zu}",
+                  bound(from.has_value(), window_from).c_str(),
+                  bound(to.has_value(), window_to).c_str(), ev.outside_window());
     }
     std::printf("}\n");
   } else {
