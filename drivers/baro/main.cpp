@@ -7,6 +7,11 @@
 #include <spdlog/spdlog.h>
 
 #include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <iostream>
+#include <sstream>
 #include <map>
 #include <memory>
 #include <optional>
@@ -16,11 +21,13 @@
 #include "core/channels.hpp"
 #include "core/cli.hpp"
 #include "core/error_limiter.hpp"
+#include "core/import_output.hpp"
 #include "core/line_buffer.hpp"
 #include "core/node.hpp"
 #include "core/serial_port.hpp"
 #include "core/site.hpp"
 #include "core/text_escape.hpp"
+#include "drivers/baro/baro_file.hpp"
 #include "drivers/baro/baro_line_parser.hpp"
 #include "drivers/baro/iio_sensor.hpp"
 #include "drivers/baro/sensor_spec.hpp"
@@ -215,6 +222,251 @@ int run(const ips::CommonOptions& opts, Settings& s) {
   return status;
 }
 
+
+// --- --file: recorded logs --------------------------------------------------------------------
+
+struct FileSettings {
+  std::vector<SensorSpec> files;  // kind kFile: id = the file's own sensor, target = the path
+  std::string columns, units, separator, header = "auto", time_unit, file_start, file_end;
+  std::string out, start_reference;
+  double rate_hz = 0, speed = 0;
+};
+
+// Unix time in s or ISO-8601 -> us; false when neither.
+bool parse_start_time(const std::string& text, int64_t& us) {
+  if (ips::table::parse_iso8601_us(text, us)) return true;
+  double s = 0;
+  if (!ips::table::parse_number(text, s) || !(std::fabs(s) < 4e12)) return false;
+  us = static_cast<int64_t>(std::llround(s * 1e6));
+  return true;
+}
+
+bool read_whole(const std::string& path, std::string& text, std::string& error) {
+  std::ostringstream buf;
+  if (path == "-") {
+    buf << std::cin.rdbuf();
+    text = buf.str();
+    return true;
+  }
+  std::ifstream in(path, std::ios::binary);
+  if (!in) {
+    error = "cannot read '" + ips::printable(path) + "'";
+    return false;
+  }
+  buf << in.rdbuf();
+  if (in.bad()) {
+    error = "cannot read '" + ips::printable(path) + "'";
+    return false;
+  }
+  text = buf.str();
+  return true;
+}
+
+// How many metres one Pa is at this pressure and temperature (the hypsometric equation's slope).
+double metres_per_pa(double p_pa, double t_c) {
+  const double t_k = (std::isnan(t_c) ? 15.0 : t_c) + 273.15;
+  return 287.05 * t_k / (9.80665 * p_pa);
+}
+
+std::string fixed(double v, int decimals) {
+  char buf[48];
+  std::snprintf(buf, sizeof buf, "%.*f", decimals, v);
+  return buf;
+}
+
+int run_files(const ips::CommonOptions& opts, const FileSettings& fs,
+              const std::vector<ReferenceSpec>& references) {
+  std::optional<ips::Site> site;
+  if (!opts.site_path.empty()) site = ips::load_site_file(opts.site_path);
+  auto usage = [](const std::string& what) {
+    ips::print_fatal(kProgram, what);
+    return 2;
+  };
+  FileOptions base;
+  if (!fs.separator.empty()) {
+    base.read.separator = ips::table::separator_from_name(fs.separator);
+    if (!base.read.separator)
+      return usage("--separator: expected , ; tab or space, got '" +
+                   ips::printable(fs.separator) + "'");
+  }
+  if (fs.header == "none") base.read.header = ips::table::HeaderMode::kNone;
+  else if (fs.header == "yes") base.read.header = ips::table::HeaderMode::kPresent;
+  else if (fs.header != "auto") return usage("--header: expected auto, none or yes");
+  int64_t t = 0;
+  if (!fs.file_start.empty()) {
+    if (!parse_start_time(fs.file_start, t))
+      return usage("--file-start: '" + ips::printable(fs.file_start) +
+                   "' is not a Unix time in s or an ISO-8601 date-time");
+    base.start_utime = t;
+  }
+  if (!fs.file_end.empty()) {
+    if (!parse_start_time(fs.file_end, t))
+      return usage("--file-end: '" + ips::printable(fs.file_end) +
+                   "' is not a Unix time in s or an ISO-8601 date-time");
+    base.end_utime = t;
+  }
+  if (base.start_utime && base.end_utime && *base.end_utime <= *base.start_utime)
+    return usage("--file-end is not after --file-start");
+  base.rate_hz = fs.rate_hz;
+
+  // Every file's layout first: a bad --columns is a usage error before anything is read.
+  std::vector<FileOptions> per_file;
+  std::vector<SensorSpec> sensors;
+  std::string reason;
+  for (const SensorSpec& f : fs.files) {
+    FileOptions o = base;
+    o.name = f.target == "-" ? "stdin" : f.target;
+    if (!parse_file_layout(fs.columns, fs.units, f.id, o.layout, reason)) return usage(reason);
+    if (!fs.time_unit.empty()) {
+      o.layout.time_unit = ips::table::time_unit_from_name(fs.time_unit);
+      if (!o.layout.time_unit)
+        return usage("--time-unit: expected s, ms, us or ns, got '" +
+                     ips::printable(fs.time_unit) + "'");
+    }
+    for (const std::string& id : o.layout.sensors) {
+      for (const SensorSpec& s : sensors)
+        if (s.id == id)
+          return usage("sensor id " + id + " comes from two files: give each file its own " +
+                       "sensor id (--file ID=FILE)");
+      sensors.push_back({SensorSpec::Kind::kFile, id, f.target});
+    }
+    per_file.push_back(std::move(o));
+  }
+  std::map<std::string, double> heights;
+  std::vector<std::string> warnings;
+  if (!reference_heights(references, sensors, site ? &*site : nullptr, heights, warnings, reason))
+    return usage(reason);
+  std::string start_ref_id;
+  if (!fs.start_reference.empty()) {
+    bool known = false;
+    for (const SensorSpec& s : sensors) known = known || s.id == fs.start_reference;
+    if (!known)
+      return usage("--start-reference " + ips::printable(fs.start_reference) +
+                   ": no such sensor in the --columns");
+    if (heights.count(fs.start_reference))
+      return usage("--start-reference " + fs.start_reference + " is a --reference itself");
+    start_ref_id = fs.start_reference + ".start";
+    if (!valid_sensor_id(start_ref_id))
+      return usage("--start-reference: the sensor id is too long for '" + start_ref_id + "'");
+  }
+  for (const std::string& w : warnings) spdlog::warn("{}: {}", kProgram, w);
+
+  const std::string channel = opts.channel(ips::channel::kBaro);
+  ips::ImportOutput output;
+  int64_t start_ref_count = 0;
+  for (size_t i = 0; i < per_file.size(); ++i) {
+    const FileOptions& o = per_file[i];
+    std::string text, error;
+    if (!read_whole(fs.files[i].target, text, error)) return usage(error);
+    const FileResult r = read_baro_file(text, o);
+    if (!r.error.empty()) {
+      ips::print_fatal(kProgram, r.error);
+      return 1;
+    }
+    ips::table::ImportExpectation e;
+    e.input = o.name;
+    e.columns = o.layout.describe();
+    e.separator = o.read.separator;
+    e.separator_given = o.read.separator.has_value();
+    e.time_needed = o.layout.has_time();
+    std::string verdict = ips::table::import_verdict(r.tally, e);
+    if (verdict.empty() && r.samples.empty())
+      verdict = o.name + ": 0 samples from " + std::to_string(r.tally.lines) +
+                " lines (an empty file?)";
+    if (!verdict.empty() && verdict.find("; ", verdict.rfind(')')) == std::string::npos &&
+        r.tally.first_bad_reason.find(" is outside ") != std::string::npos)
+      verdict += "; check --units (e.g. 0.001hPa)";
+    if (!verdict.empty()) {
+      ips::print_fatal(kProgram, verdict);
+      return 1;
+    }
+    const std::string source = std::string(kProgram) + ":file:" + o.name;
+    // The start reference: the mean of its sensor's first second, held.
+    std::optional<BaroReading> held;
+    int start_sensor = -1;
+    for (size_t k = 0; k < o.layout.sensors.size(); ++k)
+      if (!start_ref_id.empty() && o.layout.sensors[k] == fs.start_reference)
+        start_sensor = static_cast<int>(k);
+    if (start_sensor >= 0) {
+      double sp = 0, st = 0;
+      int64_t n = 0, nt = 0, first = -1;
+      for (const FileSample& s : r.samples) {
+        if (s.sensor != start_sensor) continue;
+        if (first < 0) first = s.utime;
+        if (s.utime > first + 1'000'000) break;
+        sp += s.reading.pressure_pa, ++n;
+        if (!std::isnan(s.reading.temperature_c)) st += s.reading.temperature_c, ++nt;
+      }
+      if (n > 0) {
+        BaroReading h;
+        h.pressure_pa = sp / static_cast<double>(n);
+        if (nt > 0) h.temperature_c = st / static_cast<double>(nt);
+        held = h;
+        std::fprintf(stderr,
+                     "%s: --start-reference: %s is a reference station at 0 m holding %s's mean "
+                     "of its first second (%lld samples): %s Pa, %s degC\n",
+                     kProgram, start_ref_id.c_str(), fs.start_reference.c_str(),
+                     static_cast<long long>(n), fixed(h.pressure_pa, 2).c_str(),
+                     fixed(h.temperature_c, 2).c_str());
+      }
+    }
+    for (const FileSample& s : r.samples) {
+      const std::string& id = o.layout.sensors[static_cast<size_t>(s.sensor)];
+      if (held && s.sensor == start_sensor) {
+        output.add(channel, to_message(*held, s.utime, std::string(kProgram) + ":start-reference",
+                                       start_ref_id, 0.0));
+        ++start_ref_count;
+      }
+      output.add(channel, to_message(s.reading, s.utime, source, id, height_of(heights, id)));
+    }
+    // The summary: one line for the file, one per sensor.
+    const ips::table::ImportTally& tl = r.tally;
+    const double span_s = r.samples.empty() ? 0.0
+                          : static_cast<double>(r.samples.back().utime - r.samples.front().utime) * 1e-6;
+    std::string line = o.name + ": " + std::to_string(tl.lines) + " lines, " +
+                       std::to_string(tl.rows + tl.bad) + " rows, " + std::to_string(tl.rows) +
+                       " used, " + std::to_string(tl.bad) + " rejected";
+    if (tl.bad > 0)
+      line += " (first: line " + std::to_string(tl.first_bad_line) + ": " + tl.first_bad_reason + ")";
+    line += "; " + std::to_string(r.samples.size()) + " samples over " + fixed(span_s, 1) + " s; " +
+            r.time_note;
+    std::fprintf(stderr, "%s: %s\n", kProgram, line.c_str());
+    for (size_t k = 0; k < o.layout.sensors.size(); ++k) {
+      const SensorTally& st = r.sensors[k];
+      std::string sl = o.name + ": sensor " + o.layout.sensors[k] + ": " +
+                       std::to_string(st.samples) + " samples";
+      if (st.samples > 0) {
+        const double t_c = st.n_t > 0 ? st.sum_t / static_cast<double>(st.n_t) : kNaN;
+        const double sd = st.std_p();
+        sl += ", pressure mean " + fixed(st.mean_p(), 2) + " Pa";
+        if (!std::isnan(sd))
+          sl += ", std " + fixed(sd, 2) + " Pa (" + fixed(sd * metres_per_pa(st.mean_p(), t_c), 3) +
+                " m of height per sample)";
+      }
+      sl += ", " + std::to_string(st.rejected) + " rejected";
+      if (st.rejected > 0)
+        sl += " (first: line " + std::to_string(st.first_rejected_line) + ": " + st.first_reason + ")";
+      std::fprintf(stderr, "%s: %s\n", kProgram, sl.c_str());
+    }
+  }
+  if (!fs.out.empty()) {
+    if (const std::string err = output.write_log(fs.out); !err.empty()) {
+      ips::print_fatal(kProgram, err);
+      return 2;
+    }
+    std::fprintf(stderr, "%s: wrote %lld messages on %s to %s\n", kProgram,
+                 static_cast<long long>(output.size()), channel.c_str(),
+                 ips::printable(fs.out).c_str());
+    return 0;
+  }
+  ips::Node node(kProgram, opts);
+  if (!output.publish(node, fs.speed)) return 0;  // stopped by a signal
+  std::fprintf(stderr, "%s: published %lld messages on %s\n", kProgram,
+               static_cast<long long>(output.size()), channel.c_str());
+  (void)start_ref_count;
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -269,6 +521,62 @@ int main(int argc, char** argv) {
                  "HEIGHT_M above the site origin, or the z of the --site's baro_stations entry "
                  "ID; repeatable")
       ->type_name("ID[=HEIGHT_M]");
+  FileSettings fs;
+  std::vector<std::string> file_specs;
+  std::string device = "T1";
+  app.add_option("--file", file_specs,
+                 "a recorded log instead of devices: F, '-' for stdin, or ID=F (the file's "
+                 "sensor id; else --device); repeatable (one file per sensor). Without "
+                 "--columns: 'P <Pa> T <degC> [H <%>]' lines; with it: delimited text. Read as "
+                 "fast as possible, times from the file only")
+      ->type_name("[ID=]F|-");
+  app.add_option("--device", device, "--file: the file's own sensor id (columns p, t, h)")
+      ->capture_default_str()
+      ->type_name("ID");
+  app.add_option("--columns", fs.columns,
+                 "--file: the columns by position: p, t, h (the file's sensor: pressure, "
+                 "temperature, humidity), NAME or NAME.p / NAME.t / NAME.h (another sensor NAME "
+                 "in the same file), time, '-' (skipped); e.g. mpl,p,t")
+      ->type_name("LIST");
+  app.add_option("--units", fs.units,
+                 "--file: one unit per --columns entry, in the same order ('-': the default Pa, "
+                 "degC, %, guessed time unit); e.g. 0.001hPa,0.001hPa,0.001degC")
+      ->type_name("LIST");
+  app.add_option("--separator", fs.separator,
+                 "--file: the column separator (default: detected from the first data line)")
+      ->type_name(", | ; | tab | space");
+  app.add_option("--header", fs.header, "--file: a column header line: auto, none or yes")
+      ->capture_default_str();
+  app.add_option("--time-unit", fs.time_unit,
+                 "--file: the time column's unit (default: guessed from the magnitude of epoch "
+                 "times, else s)")
+      ->type_name("s|ms|us|ns");
+  app.add_option("--file-start", fs.file_start,
+                 "--file: the time of the first row (Unix s or ISO-8601; default: the terminal "
+                 "banner's 'Date:' line)")
+      ->type_name("T");
+  app.add_option("--file-end", fs.file_end,
+                 "--file: the time of the last row, when there is no time column and no --rate "
+                 "(default: the 'Date:' line after the data)")
+      ->type_name("T");
+  app.add_option("--rate", fs.rate_hz,
+                 "--file without a time column: row k at file-start + k/HZ (default: the rows "
+                 "spread evenly from the start to the end date; the rate is printed)")
+      ->check(CLI::Range(1e-6, 1e6))
+      ->type_name("HZ");
+  app.add_option("--out", fs.out, "--file: write an LCM log instead of publishing")
+      ->type_name("LOG");
+  app.add_option("--speed", fs.speed,
+                 "--file without --out: publish paced by the file's times at this speed "
+                 "(default: as fast as possible)")
+      ->check(CLI::Range(0.0, 1e6))
+      ->type_name("X");
+  app.add_option("--start-reference", fs.start_reference,
+                 "--file, for a recording with no reference station: also publish a reference "
+                 "station ID.start at 0 m holding the mean of sensor ID's first second, so that "
+                 "ips-altitude gives ID's height change since the start (no weather "
+                 "correction: for short recordings only)")
+      ->type_name("ID");
   int rc = 0;
   if (!ips::parse_command_line(app, opts, argc, argv, rc)) return rc;
 
@@ -276,8 +584,41 @@ int main(int argc, char** argv) {
     ips::print_fatal(kProgram, what + " (see --help)");
     return 2;
   };
+  if (!file_specs.empty()) {
+    if (!iio_specs.empty() || !serial_specs.empty())
+      return usage_error("--file replaces --iio and --serial");
+    for (const auto* o : {o_rate, o_osr, o_root, o_baud})
+      if (o->count() > 0) return usage_error(o->get_name() + " does not go with --file");
+    std::string why;
+    for (const std::string& text : file_specs) {
+      SensorSpec spec{SensorSpec::Kind::kFile, device, text};
+      const size_t eq = text.find('=');
+      if (eq != std::string::npos && eq > 0 && valid_sensor_id(text.substr(0, eq))) {
+        spec.id = text.substr(0, eq);
+        spec.target = text.substr(eq + 1);
+      } else if (file_specs.size() > 1) {
+        return usage_error("--file " + ips::printable(text) +
+                           ": with several files give each its sensor id (--file ID=F)");
+      }
+      if (spec.target.empty()) return usage_error("--file: no file name in '" + text + "'");
+      fs.files.push_back(spec);
+    }
+    std::vector<ReferenceSpec> refs;
+    for (const std::string& text : reference_specs) {
+      ReferenceSpec r;
+      if (!parse_reference_spec(text, r, why)) return usage_error("--reference: " + why);
+      refs.push_back(r);
+    }
+    return ips::run_reporting_errors(kProgram, [&] { return run_files(opts, fs, refs); });
+  }
+  for (const std::string* v : {&fs.columns, &fs.units, &fs.separator, &fs.time_unit, &fs.file_start,
+                               &fs.file_end, &fs.out, &fs.start_reference})
+    if (!v->empty()) return usage_error("--columns, --units, --separator, --time-unit, "
+                                        "--file-start, --file-end, --out and --start-reference go "
+                                        "with --file");
+  if (fs.rate_hz > 0 || fs.speed > 0) return usage_error("--rate and --speed go with --file");
   if (iio_specs.empty() && serial_specs.empty())
-    return usage_error("give --iio and/or --serial (one per sensor)");
+    return usage_error("give --iio and/or --serial (one per sensor), or --file");
   if (iio_specs.empty())
     for (const auto* o : {o_rate, o_osr, o_root})
       if (o->count() > 0) return usage_error(o->get_name() + " goes with --iio");

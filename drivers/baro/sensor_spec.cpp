@@ -107,7 +107,7 @@ bool reference_heights(const std::vector<ReferenceSpec>& references,
     bool known = false;
     for (const SensorSpec& s : sensors) known = known || s.id == r.id;
     if (!known) {
-      reason = "--reference " + r.id + ": no sensor " + r.id + " (give it with --iio or --serial)";
+      reason = "--reference " + r.id + ": no sensor " + r.id + " (give it with --iio, --serial or a --file column)";
       return false;
     }
     if (heights.count(r.id)) {

@@ -18,10 +18,10 @@
 namespace ips::baro {
 
 struct SensorSpec {
-  enum class Kind { kIioByName, kIioByPath, kSerial };
+  enum class Kind { kIioByName, kIioByPath, kSerial, kFile };
   Kind kind = Kind::kIioByName;
   std::string id;
-  std::string target;  // the name or the path
+  std::string target;  // the name or the path (kFile: the file, "-" for stdin)
 };
 
 // A sensor id: 1 to 32 of A-Za-z0-9_.:- (as the site file's ids).

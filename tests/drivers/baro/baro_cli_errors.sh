@@ -47,7 +47,7 @@ refuse "sensor id T1 is given twice" "${I[@]}" --iio T1=bmp280 --serial "T1=$WOR
 refuse "--serial $WORK/tty is given twice" --serial "T1=$WORK/tty" --serial "T2=$WORK/tty"
 refuse "--reference: 'B1=high': the height is not a number of metres within +-10000 (e.g. B1=2.4)" \
   "${I[@]}" --iio B1=bmp280 --reference B1=high
-refuse "--reference X9: no sensor X9 (give it with --iio or --serial)" "${I[@]}" --iio B1=bmp280 \
+refuse "--reference X9: no sensor X9 (give it with --iio, --serial or a --file column)" "${I[@]}" --iio B1=bmp280 \
   --reference X9=1
 refuse "--reference B1 is given twice" "${I[@]}" --iio B1=bmp280 --reference B1=1 --reference B1=2
 refuse "--reference B1: no height: give B1=HEIGHT_M, or --site with a baro_stations entry B1" \

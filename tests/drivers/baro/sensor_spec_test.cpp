@@ -136,7 +136,7 @@ TEST_F(BaroReferenceHeights, TheCommandLineWinsAndTheDifferenceIsSaid) {
 
 TEST_F(BaroReferenceHeights, EveryRefusal) {
   EXPECT_FALSE(reference_heights({{"X9", 1.0}}, sensors, nullptr, heights, warnings, reason));
-  EXPECT_EQ(reason, "--reference X9: no sensor X9 (give it with --iio or --serial)");
+  EXPECT_EQ(reason, "--reference X9: no sensor X9 (give it with --iio, --serial or a --file column)");
   EXPECT_FALSE(
       reference_heights({{"B1", 1.0}, {"B1", 2.0}}, sensors, nullptr, heights, warnings, reason));
   EXPECT_EQ(reason, "--reference B1 is given twice");
