@@ -1,8 +1,8 @@
 // ips-phone-imu: phones streaming their inertial sensors -> imu_t on IMU, phone time mapped to
 // host time. Live: UDP datagrams of CSV rows (IMU+GPS-Stream, HyperIMU; csv_row.hpp) and/or HTTP
 // POSTs of Sensor Logger JSON batches (sensor_logger_json.hpp, core/http_server.hpp). --file
-// imports a recorded file of semicolon-separated rows with ms times onto the bus or into a log
-// (--out).
+// imports a recorded file (delimited text of any separator and time unit, or rows at a --rate;
+// file_import.hpp) into a log (--out) or onto the bus.
 // Apps, settings, formats, time mapping: docs/hardware/phone.md.
 #include <spdlog/spdlog.h>
 #include <sys/stat.h>
@@ -22,16 +22,16 @@
 #include "core/channels.hpp"
 #include "core/cli.hpp"
 #include "core/device_text.hpp"
+#include "core/error_limiter.hpp"
 #include "core/http_server.hpp"
+#include "core/import_output.hpp"
 #include "core/lcm_url.hpp"
-#include "core/line_buffer.hpp"
 #include "core/node.hpp"
-#include "core/paced_release.hpp"
-#include "core/udp_socket.hpp"
 #include "core/progress.hpp"
 #include "core/text_escape.hpp"
+#include "core/udp_socket.hpp"
 #include "drivers/phone_imu/csv_row.hpp"
-#include "core/error_limiter.hpp"
+#include "drivers/phone_imu/file_import.hpp"
 #include "drivers/phone_imu/phone_streams.hpp"
 #include "drivers/phone_imu/sensor_logger_json.hpp"
 
@@ -45,7 +45,6 @@ using ips::http::HttpServer;
 using ips::http::HttpServerOptions;
 
 constexpr const char* kProgram = "ips-phone-imu";
-constexpr int64_t kFileReasonsLogged = 20;
 
 bool valid_device_id(std::string_view id) {
   if (id.empty() || id.size() > 64) return false;
@@ -65,7 +64,7 @@ bool valid_ipv4(const std::string& a) {
 }
 
 struct Settings {
-  RowFormat udp_format, file_format;
+  RowFormat udp_format;
   JsonSensorNames json_names;
   PhoneStreamsConfig streams;
   std::string device_id;  // --device-id, empty: from the sender
@@ -98,11 +97,12 @@ class Live {
   void publish_batch(const std::string& device, int64_t host_us, std::vector<SensorSample>& b) {
     const BatchResult r = streams_.on_batch(device, host_us, b);
     if (r.clock_reset)
-      spdlog::info("{}: {}: phone clock jumped; time mapping restarted (offset {:.6f} s)",
-                   kProgram, device, static_cast<double>(r.offset_us) * 1e-6);
+      spdlog::info("{}: {}: phone clock jumped; time mapping restarted (offset {:.6f} s)", kProgram,
+                   device, static_cast<double>(r.offset_us) * 1e-6);
     if (r.dropped > 0)
-      dropped("assembler", device + ": " + std::to_string(r.dropped) +
-                               " reading(s) dropped: not newer than the last, or time not mappable",
+      dropped("assembler",
+              device + ": " + std::to_string(r.dropped) +
+                  " reading(s) dropped: not newer than the last, or time not mappable",
               r.dropped);
   }
 
@@ -135,8 +135,10 @@ class Live {
     JsonBatch b = parse_sensor_logger_batch(r.body, s_.json_names);
     if (!b.ok) {
       bad("json", "refused POST from " + peer + ": " + b.reason);
-      return {400, "application/json",
-              "{\"status\":\"error\",\"reason\":" + ips::json_quote(b.reason) + "}", {}};
+      return {400,
+              "application/json",
+              "{\"status\":\"error\",\"reason\":" + ips::json_quote(b.reason) + "}",
+              {}};
     }
     if (b.bad_entries > 0)
       bad("json", "skipped payload entries from " + peer + ": " + b.first_bad, b.bad_entries);
@@ -145,7 +147,8 @@ class Live {
                                                               : peer;
     const int64_t accepted = static_cast<int64_t>(b.samples.size());
     publish_batch(device, host_us, b.samples);
-    return {200, "application/json",
+    return {200,
+            "application/json",
             "{\"status\":\"ok\",\"accepted\":" + std::to_string(accepted) +
                 ",\"rejected\":" + std::to_string(b.bad_entries) + "}",
             {}};
@@ -154,8 +157,10 @@ class Live {
   void on_refused(int status, const std::string& reason, const std::string& peer) {
     ++node_.counters().msgs_in;
     const std::string text = "HTTP " + std::to_string(status) + " to " + peer + ": " + reason;
-    if (status == 404 || status == 405 || status == 503) dropped("http", text, 1);
-    else bad("http", text);
+    if (status == 404 || status == 405 || status == 503)
+      dropped("http", text, 1);
+    else
+      bad("http", text);
   }
 
  private:
@@ -178,10 +183,8 @@ int run_live(const ips::CommonOptions& opts, Settings& s) {
     udp = std::make_unique<ips::UdpSocket>(
         node, s.max_datagram_bytes,
         ips::UdpSocket::Callbacks{
-            .on_datagram =
-                [&](std::string_view d, const std::string& sender, ips::utime_t t) {
-                  live.on_datagram(d, sender, t);
-                },
+            .on_datagram = [&](std::string_view d, const std::string& sender,
+                               ips::utime_t t) { live.on_datagram(d, sender, t); },
             .on_dropped =
                 [&](int64_t n) {
                   live.dropped("udp-queue",
@@ -228,150 +231,100 @@ int run_live(const ips::CommonOptions& opts, Settings& s) {
 
 // --- file import -----------------------------------------------------------------------------
 
-struct FileCounts {
-  int64_t lines = 0, rows = 0, published = 0, bad = 0, dropped = 0, header = 0;
-};
+// Longer lines are cut here (and then rejected as rows): a binary file has no line ends.
+constexpr size_t kMaxLineBytes = 1 << 16;
 
-// Reads the file's rows and hands every reading on through one PhoneStreams with a fixed offset:
-// --file-start-s puts the first row at that Unix time, else the times are taken as Unix epoch.
-template <class Publish, class Between>
-bool import_rows(std::FILE* file, int64_t size, const Settings& s,
-                 const std::optional<double>& start_s, const std::string& device,
-                 const std::string& source, Publish&& publish, Between&& between,
-                 FileCounts& counts) {
-  std::unique_ptr<PhoneStreams> streams;
+std::string span_text(int64_t first_us, int64_t last_us) {
+  char buf[96];
+  std::snprintf(buf, sizeof buf, "%.3f to %.3f s (%.1f s)", static_cast<double>(first_us) * 1e-6,
+                static_cast<double>(last_us) * 1e-6,
+                static_cast<double>(last_us - first_us) * 1e-6);
+  return buf;
+}
+
+// Reads the file's lines (empty ones too, so line numbers are the file's) into a FileImport whose
+// messages ImportOutput keeps, then writes them into a log (--out) or publishes them; nothing
+// silent: an import with nothing or mostly rejected rows ends with one error line, status 1.
+int import_file(std::FILE* file, int64_t size, const FileImportOptions& fo,
+                const std::string& out_path, const ips::CommonOptions& opts, double speed) {
+  ips::ImportOutput output;
+  const std::string channel = opts.channel(ips::channel::kImu);
+  FileImport import(fo, [&](const ips::imu_t& m) { output.add(channel, m); });
+  if (!import.setup_error().empty()) {
+    ips::print_fatal(kProgram, import.setup_error() + " (see --help)");
+    return 2;
+  }
   ips::ProgressLine progress(kProgram);
-  ips::LineBuffer lines;
   std::vector<char> buf(1 << 16);
-  std::vector<SensorSample> batch;
+  std::string line;
   int64_t offset = 0;
-  double fraction = 0;
-  bool go_on = true;
-  auto on_line = [&](std::string_view line) {
-    if (!go_on) return;
-    ++counts.lines;
-    const RowParse p = parse_row(line, s.file_format);
-    if (!p.ok) {
-      // A first line that starts with a word is the app's header.
-      if (counts.lines == 1 && !line.empty() && std::isalpha(static_cast<unsigned char>(line[0]))) {
-        ++counts.header;
-        return;
-      }
-      if (++counts.bad <= kFileReasonsLogged)
-        spdlog::warn("{}: line {}: {}", kProgram, counts.lines, p.reason);
-      return;
-    }
-    ++counts.rows;
-    if (!streams) {
-      PhoneStreamsConfig c = s.streams;
-      c.source = source;
-      c.fixed_offset_us = start_s ? ips::s_to_utime(*start_s) - p.device_us : 0;
-      streams = std::make_unique<PhoneStreams>(c, publish);
-    }
-    batch.assign(p.samples.begin(), p.samples.begin() + p.count);
-    const BatchResult r = streams->on_batch(device, 0, batch);
-    counts.published += r.published;
-    counts.dropped += r.dropped;
-    progress.update(fraction, counts.published);
-    go_on = between();
-  };
   for (;;) {
     const size_t n = std::fread(buf.data(), 1, buf.size(), file);
     if (n == 0) break;
     offset += static_cast<int64_t>(n);
-    fraction = size > 0 ? static_cast<double>(offset) / static_cast<double>(size) : 1;
-    lines.feed(std::string_view(buf.data(), n), on_line);
-    if (!go_on) return false;
+    for (size_t i = 0; i < n; ++i) {
+      const char c = buf[i];
+      if (c == '\n') {
+        if (!line.empty() && line.back() == '\r') line.pop_back();
+        import.feed(line);
+        line.clear();
+      } else if (line.size() < kMaxLineBytes) {
+        line.push_back(c);
+      }
+    }
+    progress.update(size > 0 ? static_cast<double>(offset) / static_cast<double>(size) : 1,
+                    output.size());
   }
-  const std::string rest = lines.take_partial();
-  if (!rest.empty()) on_line(rest);
-  counts.bad += lines.overlong_lines();
-  if (!go_on) return false;
+  if (std::ferror(file)) {
+    ips::print_fatal(kProgram, "--file: read error on '" + ips::printable(fo.input) + "'");
+    return 1;
+  }
+  if (!line.empty()) {
+    if (line.back() == '\r') line.pop_back();
+    import.feed(line);
+  }
   progress.finish();
-  return true;
-}
-
-void summarise(const FileCounts& c, const std::string& where) {
-  if (c.bad > kFileReasonsLogged)
-    spdlog::warn("{}: ... and {} more bad lines", kProgram, c.bad - kFileReasonsLogged);
-  spdlog::info("{}: file: {} lines ({} header), {} messages {}, {} bad lines, {} readings dropped",
-               kProgram, c.lines, c.header, c.published, where, c.bad, c.dropped);
-  if (c.dropped > 0 && c.published == 0)
-    spdlog::warn("{}: no reading could be placed in time: are the times Unix epoch in "
-                 "--file-time-unit? Otherwise give --file-start-s",
-                 kProgram);
-}
-
-int write_log(std::FILE* file, int64_t size, const std::string& out_path,
-              const ips::CommonOptions& opts, const Settings& s,
-              const std::optional<double>& start_s, const std::string& device,
-              const std::string& source) {
-  lcm::LogFile log(out_path, "w");
-  if (!log.good()) {
-    ips::print_fatal(kProgram, "--out: cannot write '" + ips::printable(out_path) + "'");
+  const std::string verdict = import.finish();
+  if (!verdict.empty()) {
+    ips::print_fatal(kProgram, verdict);
     return 1;
   }
-  const std::string channel = opts.channel(ips::channel::kImu);
-  std::vector<uint8_t> buf;
-  bool write_failed = false;
-  int64_t eventnum = 0;
-  FileCounts counts;
-  import_rows(
-      file, size, s, start_s, device, source,
-      [&](const ips::imu_t& m) {
-        buf.resize(static_cast<size_t>(m.getEncodedSize()));
-        m.encode(buf.data(), 0, static_cast<int>(buf.size()));
-        lcm::LogEvent le;
-        le.eventnum = eventnum++;
-        le.timestamp = m.utime;
-        le.channel = channel;
-        le.datalen = static_cast<int32_t>(buf.size());
-        le.data = buf.data();
-        if (log.writeEvent(&le) != 0) write_failed = true;
-      },
-      [&] { return !write_failed; }, counts);
-  if (write_failed || std::fflush(log.getFilePtr()) != 0 || std::ferror(log.getFilePtr())) {
-    ips::print_fatal(kProgram, "write to '" + ips::printable(out_path) + "' failed (disk full?)");
-    return 1;
+  spdlog::info("{}: {}: {}", kProgram, ips::printable(fo.input), import.describe());
+  for (const std::string& w : import.warnings())
+    spdlog::warn("{}: {}: {}", kProgram, ips::printable(fo.input), w);
+  const ips::table::ImportTally& t = import.tally();
+  std::string summary = std::to_string(t.rows + t.bad) + " rows read, " +
+                        std::to_string(t.messages) + " messages " +
+                        (out_path.empty() ? "published" : "written to " + out_path) + ", " +
+                        std::to_string(t.bad) + " rows rejected";
+  if (t.bad > 0)
+    summary += " (first: line " + std::to_string(t.first_bad_line) + " '" + t.first_bad_text +
+               "': " + t.first_bad_reason + ")";
+  if (import.dropped() > 0)
+    summary += ", " + std::to_string(import.dropped()) +
+               " readings dropped (not newer than the previous, or time not plausible)";
+  summary += ", " + span_text(import.first_utime(), import.last_utime());
+  if (!out_path.empty()) {
+    if (const std::string error = output.write_log(out_path); !error.empty()) {
+      ips::print_fatal(kProgram, "--out: " + error);
+      return 1;
+    }
+    spdlog::info("{}: {}", kProgram, summary);
+    return 0;
   }
-  summarise(counts, "written to " + out_path);
-  return 0;
-}
-
-int publish_file(std::FILE* file, int64_t size, const ips::CommonOptions& opts,
-                 const Settings& s, const std::optional<double>& start_s,
-                 const std::string& device, const std::string& source, double speed) {
-  ips::Node node(kProgram, opts);
-  const std::string channel = opts.channel(ips::channel::kImu);
-  bool stopped = false;
-  ips::PacedRelease pace(node, speed);  // by the file's own times
-  FileCounts counts;
-  int64_t bad_seen = 0;
-  import_rows(
-      file, size, s, start_s, device, source,
-      [&](const ips::imu_t& m) {
-        if (stopped) return;
-        if (!pace.wait(m.utime)) {
-          stopped = true;
-          return;
-        }
-        node.publish(channel, m);
-      },
-      [&] {
-        node.counters().msgs_in = counts.lines;
-        node.counters().parse_errors += counts.bad - bad_seen;
-        bad_seen = counts.bad;
-        return !stopped;
-      },
-      counts);
-  if (stopped) return 0;  // SIGINT/SIGTERM
-  node.counters().msgs_in = counts.lines;
-  node.counters().parse_errors = counts.bad;
-  node.counters().drops = counts.dropped;
-  if (counts.bad > 0) node.report_error("file: " + std::to_string(counts.bad) + " bad lines");
-  node.publish_health();
-  summarise(counts, "published");
-  return 0;
+  return ips::run_reporting_errors(kProgram, [&] {
+    ips::Node node(kProgram, opts);
+    node.counters().msgs_in = t.lines;
+    node.counters().parse_errors = t.bad;
+    node.counters().drops = import.dropped();
+    if (t.bad > 0)
+      node.report_error("file: " + std::to_string(t.bad) + " rows rejected, the first: line " +
+                        std::to_string(t.first_bad_line) + ": " + t.first_bad_reason);
+    if (!output.publish(node, speed)) return 0;  // SIGINT/SIGTERM
+    node.publish_health();
+    spdlog::info("{}: {}", kProgram, summary);
+    return 0;
+  });
 }
 
 }  // namespace
@@ -380,17 +333,18 @@ int main(int argc, char** argv) {
   CLI::App app{
       "ips-phone-imu: phones streaming their inertial sensors, published as imu_t on IMU with the "
       "phone's time mapped to host time. --udp-port: CSV datagrams (IMU+GPS-Stream, HyperIMU); "
-      "--http-port: Sensor Logger HTTP Push JSON; --file: a recorded file of semicolon-separated "
-      "rows with ms times, onto the bus or into an LCM log (--out). Details: "
+      "--http-port: Sensor Logger HTTP Push JSON; --file: a recorded file (any separator, time "
+      "unit "
+      "and columns, or rows at a --rate), into an LCM log (--out) or onto the bus. Details: "
       "docs/hardware/phone.md.",
       kProgram};
   ips::CommonOptions opts;
   ips::add_common_options(app, opts, {.lcm = true, .site = false, .channels = true});
   Settings s;
-  std::string columns = "tagged", file_columns = "t,ax,ay,az,gx,gy,gz,mx,my,mz";
-  std::string udp_time = "s", file_time = "ms", accel_unit = "m/s2", gyro_unit = "rad/s",
-              mag_unit = "uT", assemble = "accel", file_path, out_path;
-  double pair_window_s = 0.05, speed = 1.0, start_s = 0;
+  std::string columns = "tagged", file_columns, separator, header = "auto", file_start;
+  std::string udp_time = "s", file_time, accel_unit = "m/s2", gyro_unit = "rad/s", mag_unit = "uT",
+              assemble = "accel", file_path, out_path;
+  double pair_window_s = 0.05, speed = 0, start_s = 0, rate_hz = 0;
   bool as_fast = false;
   auto* o_udp = app.add_option("--udp-port", s.udp_port, "receive CSV datagrams on this UDP port")
                     ->check(CLI::Range(1, 65535));
@@ -400,12 +354,16 @@ int main(int argc, char** argv) {
                          ->capture_default_str()
                          ->type_name("ADDR");
   auto* o_columns = app.add_option("--columns", columns,
-                                   "datagram columns: tagged (IMU+GPS-Stream: time, id, x, y, z, "
-                                   "...) or names, e.g. t,ax,ay,az,gx,gy,gz,mx,my,mz (HyperIMU)")
-                        ->capture_default_str();
-  auto* o_udp_time = app.add_option("--udp-time-unit", udp_time,
-                                    "unit of the datagrams' time: s, ms, us, ns")
-                         ->capture_default_str();
+                                   "--udp-port: the datagrams' columns, tagged (IMU+GPS-Stream: "
+                                   "time, id, x, y, z, ...) or names, e.g. "
+                                   "t,ax,ay,az,gx,gy,gz,mx,my,mz (HyperIMU). --file: the file's "
+                                   "columns by position ('-' skips one, e.g. t,-,ax,ay,az; "
+                                   "default: by the header's names, else "
+                                   "t,ax,ay,az,gx,gy,gz,mx,my,mz)")
+                        ->default_str("tagged");
+  auto* o_udp_time =
+      app.add_option("--udp-time-unit", udp_time, "unit of the datagrams' time: s, ms, us, ns")
+          ->capture_default_str();
   auto* o_max_dgram = app.add_option("--max-datagram-bytes", s.max_datagram_bytes,
                                      "longer datagrams are skipped and counted")
                           ->capture_default_str()
@@ -431,31 +389,50 @@ int main(int argc, char** argv) {
   auto* o_jacc = app.add_option("--json-accel", s.json_names.accel,
                                 "Sensor Logger entry read as the accelerometer (with gravity)")
                      ->capture_default_str();
-  auto* o_jgyr = app.add_option("--json-gyro", s.json_names.gyro,
-                                "Sensor Logger entry read as the gyroscope")
-                     ->capture_default_str();
-  auto* o_jmag = app.add_option("--json-mag", s.json_names.mag,
-                                "Sensor Logger entry read as the magnetometer")
-                     ->capture_default_str();
+  auto* o_jgyr =
+      app.add_option("--json-gyro", s.json_names.gyro, "Sensor Logger entry read as the gyroscope")
+          ->capture_default_str();
+  auto* o_jmag =
+      app.add_option("--json-mag", s.json_names.mag, "Sensor Logger entry read as the magnetometer")
+          ->capture_default_str();
   auto* o_file = app.add_option("--file", file_path,
-                                "import a recorded file (semicolon-separated rows, ms times)")
+                                "import a recorded file: delimited text (separator detected), "
+                                "columns by --columns or by the header's names")
                      ->type_name("FILE");
-  auto* o_fcols = app.add_option("--file-columns", file_columns,
-                                 "the file's columns (names as for --columns)")
-                      ->capture_default_str();
-  auto* o_ftime = app.add_option("--file-time-unit", file_time, "unit of the file's time")
-                      ->capture_default_str();
-  auto* o_start = app.add_option("--file-start-s", start_s,
-                                 "Unix time (s) of the file's first row, when its times are not "
-                                 "Unix epoch (e.g. time since boot)");
-  auto* o_out = app.add_option("--out", out_path,
-                               "--file: write a standard LCM log as fast as possible instead of "
-                               "publishing")
-                    ->type_name("FILE.lcm");
-  auto* o_speed = app.add_option("--speed", speed, "--file: playback speed factor")
-                      ->capture_default_str()
+  auto* o_sep = app.add_option("--separator", separator,
+                               "--file: the separator: , ; tab space (default: detected from the "
+                               "first data line)");
+  auto* o_header = app.add_option("--header", header,
+                                  "--file: auto (a non-numeric line before the data is the "
+                                  "header), none, yes")
+                       ->capture_default_str();
+  auto* o_ftime = app.add_option("--time-unit", file_time,
+                                 "--file: unit of the time column: s, ms, us, ns (default: "
+                                 "guessed from the magnitude of an epoch time, else s)");
+  auto* o_start = app.add_option("--file-start", file_start,
+                                 "--file: Unix time (s) or ISO-8601 date-time of the first row, "
+                                 "for times since boot, or with --rate")
+                      ->type_name("T");
+  auto* o_rate = app.add_option("--rate", rate_hz,
+                                "--file: the file has no time column; row k is at --file-start + "
+                                "k / HZ")
+                     ->type_name("HZ")
+                     ->check(CLI::Range(1e-3, 1e6));
+  // Deprecated spellings of the three above (before the shared file reader).
+  auto* o_fcols =
+      app.add_option("--file-columns", file_columns, "deprecated: --columns with --file");
+  auto* o_ftime_old = app.add_option("--file-time-unit", file_time, "deprecated: --time-unit");
+  auto* o_start_old = app.add_option("--file-start-s", start_s, "deprecated: --file-start");
+  auto* o_out =
+      app.add_option("--out", out_path, "--file: write a standard LCM log instead of publishing")
+          ->type_name("FILE.lcm");
+  auto* o_speed = app.add_option("--speed", speed,
+                                 "--file: publish paced by the file's own times at this speed "
+                                 "factor (default: as fast as possible)")
                       ->check(CLI::Range(1e-3, 1e6));
-  auto* o_fast = app.add_flag("--as-fast-as-possible", as_fast, "--file: publish without pacing");
+  auto* o_fast = app.add_flag("--as-fast-as-possible", as_fast,
+                              "--file: publish without pacing (the default; kept for old "
+                              "command lines)");
   app.add_option("--accel-unit", accel_unit, "UDP and file accelerometer unit: m/s2 or g")
       ->capture_default_str();
   app.add_option("--gyro-unit", gyro_unit, "UDP and file gyroscope unit: rad/s or deg/s")
@@ -498,10 +475,17 @@ int main(int argc, char** argv) {
   if (file && live) return usage_error("--file excludes --udp-port and --http-port");
   if (!file && !live) return usage_error("give --udp-port and/or --http-port, or --file");
   if (!file)
-    for (const auto* o : {o_fcols, o_ftime, o_start, o_out, o_speed, o_fast})
+    for (const auto* o : {o_fcols, o_ftime, o_ftime_old, o_start, o_start_old, o_out, o_speed,
+                          o_fast, o_sep, o_header, o_rate})
       if (o->count() > 0) return usage_error(o->get_name() + " goes with --file");
+  if (o_fcols->count() > 0 && o_columns->count() > 0)
+    return usage_error("--file-columns is the old name of --columns: give one of them");
+  if (o_ftime->count() + o_ftime_old->count() > 1)
+    return usage_error("--file-time-unit is the old name of --time-unit: give one of them");
+  if (o_start->count() > 0 && o_start_old->count() > 0)
+    return usage_error("--file-start-s is the old name of --file-start: give one of them");
   if (o_udp->count() == 0)
-    for (const auto* o : {o_udp_bind, o_columns, o_udp_time, o_max_dgram})
+    for (const auto* o : {o_udp_bind, o_udp_time, o_max_dgram})
       if (o->count() > 0) return usage_error(o->get_name() + " goes with --udp-port");
   if (o_http->count() == 0)
     for (const auto* o : {o_http_bind, o_path, o_body, o_conns, o_jacc, o_jgyr, o_jmag})
@@ -515,19 +499,18 @@ int main(int argc, char** argv) {
                        "'");
   if (!mag_scale_from_name(mag_unit, units.mag))
     return usage_error("--mag-unit: expected uT or mG, got '" + ips::printable(mag_unit) + "'");
-  s.udp_format.units = s.file_format.units = units;
-  if (const auto u = time_unit_from_name(udp_time)) s.udp_format.time_unit = *u;
-  else return usage_error("--udp-time-unit: expected s, ms, us or ns, got '" +
-                          ips::printable(udp_time) + "'");
-  if (const auto u = time_unit_from_name(file_time)) s.file_format.time_unit = *u;
-  else return usage_error("--file-time-unit: expected s, ms, us or ns, got '" +
-                          ips::printable(file_time) + "'");
+  s.udp_format.units = units;
+  if (const auto u = time_unit_from_name(udp_time))
+    s.udp_format.time_unit = *u;
+  else
+    return usage_error("--udp-time-unit: expected s, ms, us or ns, got '" +
+                       ips::printable(udp_time) + "'");
   s.udp_format.separator = ',';
-  s.file_format.separator = ';';
-  if (const std::string why = parse_column_mapping(columns, s.udp_format); !why.empty())
-    return usage_error("--columns: " + why);
-  if (const std::string why = parse_column_mapping(file_columns, s.file_format); !why.empty())
-    return usage_error("--file-columns: " + why);
+  if (!file && o_udp->count() == 0 && o_columns->count() > 0)
+    return usage_error("--columns goes with --udp-port or --file");
+  if (!file)
+    if (const std::string why = parse_column_mapping(columns, s.udp_format); !why.empty())
+      return usage_error("--columns: " + why);
   if (assemble != "accel" && assemble != "per-sample")
     return usage_error("--assemble: expected accel or per-sample, got '" +
                        ips::printable(assemble) + "'");
@@ -536,8 +519,8 @@ int main(int argc, char** argv) {
   if (o_dev->count() > 0 && !valid_device_id(s.device_id))
     return usage_error("--device-id: '" + ips::printable(s.device_id) +
                        "' is not 1 to 64 of A-Za-z0-9_.:-");
-  for (const auto& [name, addr] : {std::pair{"--udp-bind", s.udp_bind},
-                                   std::pair{"--http-bind", s.http_bind}})
+  for (const auto& [name, addr] :
+       {std::pair{"--udp-bind", s.udp_bind}, std::pair{"--http-bind", s.http_bind}})
     if (!valid_ipv4(addr))
       return usage_error(std::string(name) + ": '" + ips::printable(addr) +
                          "' is not an IPv4 address (e.g. 127.0.0.1 or 0.0.0.0)");
@@ -545,8 +528,11 @@ int main(int argc, char** argv) {
       s.http_path.find_first_of(" ?#") != std::string::npos)
     return usage_error("--http-path: '" + ips::printable(s.http_path) +
                        "' is not a path such as /data");
-  if (o_start->count() > 0 && !(start_s > 0 && start_s < 4e12))
-    return usage_error("--file-start-s: not a Unix time in seconds");
+  if (o_start_old->count() > 0) {
+    if (!(start_s > 0 && start_s < 4e12))
+      return usage_error("--file-start-s: not a Unix time in seconds");
+    file_start = std::to_string(start_s);
+  }
 
   if (file) {
     std::unique_ptr<std::FILE, int (*)(std::FILE*)> f(std::fopen(file_path.c_str(), "rb"),
@@ -558,14 +544,50 @@ int main(int argc, char** argv) {
     if (fstat(fileno(f.get()), &st) != 0 || S_ISDIR(st.st_mode))
       return usage_error("--file: '" + ips::printable(file_path) + "' is a directory");
     const int64_t size = S_ISREG(st.st_mode) ? static_cast<int64_t>(st.st_size) : 0;
-    const std::optional<double> start = o_start->count() > 0 ? std::optional(start_s) : std::nullopt;
-    const std::string device = s.device_id.empty() ? "phone" : s.device_id;
-    const std::string source = std::string(kProgram) + ":file";
-    if (!out_path.empty())
-      return write_log(f.get(), size, out_path, opts, s, start, device, source);
-    return ips::run_reporting_errors(kProgram, [&] {
-      return publish_file(f.get(), size, opts, s, start, device, source, as_fast ? 0.0 : speed);
-    });
+    FileImportOptions fo;
+    fo.input = ips::printable(file_path);
+    if (o_columns->count() > 0)
+      fo.columns = columns;
+    else if (o_fcols->count() > 0)
+      fo.columns = file_columns;
+    if (o_sep->count() > 0) {
+      fo.read.separator = ips::table::separator_from_name(separator);
+      if (!fo.read.separator)
+        return usage_error("--separator: expected , ; tab or space, got '" +
+                           ips::printable(separator) + "'");
+    }
+    if (header == "auto")
+      fo.read.header = ips::table::HeaderMode::kAuto;
+    else if (header == "none")
+      fo.read.header = ips::table::HeaderMode::kNone;
+    else if (header == "yes")
+      fo.read.header = ips::table::HeaderMode::kPresent;
+    else
+      return usage_error("--header: expected auto, none or yes, got '" + ips::printable(header) +
+                         "'");
+    if (!file_time.empty()) {
+      fo.time_unit = ips::table::time_unit_from_name(file_time);
+      if (!fo.time_unit)
+        return usage_error("--time-unit: expected s, ms, us or ns, got '" +
+                           ips::printable(file_time) + "'");
+    }
+    if (!file_start.empty()) {
+      double v = 0;
+      int64_t us = 0;
+      if (ips::table::parse_number(file_start, v) && v > 0 && v < 4e12)
+        fo.start_utime = static_cast<int64_t>(std::llround(v * 1e6));
+      else if (ips::table::parse_iso8601_us(file_start, us) && ips::plausible_utime(us))
+        fo.start_utime = us;
+      else
+        return usage_error("--file-start: '" + ips::printable(file_start) +
+                           "' is not a Unix time in s or an ISO-8601 date-time after 1970");
+    }
+    fo.rate_hz = rate_hz;
+    fo.units = units;
+    fo.assembler = s.streams.assembler;
+    fo.device_id = s.device_id.empty() ? "phone" : s.device_id;
+    fo.source = std::string(kProgram) + ":file";
+    return import_file(f.get(), size, fo, out_path, opts, as_fast ? 0.0 : speed);
   }
   return ips::run_reporting_errors(kProgram, [&] { return run_live(opts, s); });
 }

@@ -25,8 +25,17 @@ refuse "--udp-port" --udp-port 0
 refuse "--http-port" --http-port 70000
 refuse "--columns: unknown column 'qx'" --udp-port 5555 --columns t,qx
 refuse "--columns: no t (time) column" --udp-port 5555 --columns ax,ay,az
-refuse "--file-columns: accelerometer needs all three axes or none" --file "$WORK/f.txt" \
+refuse "--columns: accelerometer needs all three axes or none" --file "$WORK/f.txt" \
   --file-columns t,ax
+refuse "--columns: accelerometer needs all three axes or none" --file "$WORK/f.txt" --columns t,ax
+refuse "--columns: --rate is for a file without a time column" --file "$WORK/f.txt" --rate 100 \
+  --columns t,ax,ay,az
+refuse "--time-unit: expected s, ms, us or ns, got 'min'" --file "$WORK/f.txt" --time-unit min
+refuse "--separator: expected , ; tab or space, got 'x'" --file "$WORK/f.txt" --separator x
+refuse "--file-start: '2024-13-01' is not a Unix time" --file "$WORK/f.txt" --file-start 2024-13-01
+refuse "--rate goes with --file" --udp-port 5555 --rate 100
+refuse "--file-columns is the old name of --columns" --file "$WORK/f.txt" --columns t,ax,ay,az \
+  --file-columns t,ax,ay,az
 refuse "--udp-time-unit: expected s, ms, us or ns, got 'min'" --udp-port 5555 --udp-time-unit min
 refuse "--gyro-unit: expected rad/s or deg/s, got 'dps'" --udp-port 5555 --gyro-unit dps
 refuse "--accel-unit: expected m/s2 or g, got 'G'" --udp-port 5555 --accel-unit G
@@ -51,6 +60,7 @@ out=$("$BIN/ips-phone-imu" --help) || fail "--help: status $?"
 for flag in --udp-port --udp-bind --columns --udp-time-unit --max-datagram-bytes --http-port \
   --http-bind --http-path --max-body-bytes --max-connections --json-accel --json-gyro --json-mag \
   --file --file-columns --file-time-unit --file-start-s --out --speed --as-fast-as-possible \
+  --separator --header --time-unit --file-start --rate \
   --accel-unit --gyro-unit --mag-unit --assemble --pair-window-s --clock-window-s --clock-jump-s \
   --device-id --lcm-url --channel --log-level; do
   echo "$out" | grep -q -- "$flag" || fail "--help does not list $flag"

@@ -6,6 +6,7 @@ ips_unit_test(phone_imu_test
   drivers/phone_imu/sensor_logger_json_test.cpp
   drivers/phone_imu/clock_offset_test.cpp
   drivers/phone_imu/imu_assembler_test.cpp
+  drivers/phone_imu/file_import_test.cpp
 )
 target_link_libraries(phone_imu_test PRIVATE ips_phone_imu)
 
@@ -33,3 +34,18 @@ add_test(NAME phone_imu_cli_errors
          COMMAND ${CMAKE_CURRENT_SOURCE_DIR}/drivers/phone_imu/phone_imu_cli_errors.sh
                  ${CMAKE_RUNTIME_OUTPUT_DIRECTORY})
 set_tests_properties(phone_imu_cli_errors PROPERTIES LABELS integration TIMEOUT 30)
+
+# --file through core/table_text: the real excerpts (steps-oxford accelerometer-only CSV,
+# foot-openshoe at --rate 820), a header by name, --file-start; nothing silent (status 1 with the
+# exact hint for a wrong separator, a wrong time unit, garbage).
+add_test(NAME phone_imu_file_cli
+         COMMAND ${CMAKE_CURRENT_SOURCE_DIR}/integration/phone_imu_file_cli.sh
+                 ${CMAKE_RUNTIME_OUTPUT_DIRECTORY})
+set_tests_properties(phone_imu_file_cli PROPERTIES LABELS integration TIMEOUT 60)
+
+# The excerpts of tests/data/real/{steps-oxford,foot-openshoe} through ips-replay (ips-pdr,
+# ips-ins): import counts, the PDR's stated drop reason, the INS track's poses and length.
+add_test(NAME phone_imu_realdata
+         COMMAND ${CMAKE_CURRENT_SOURCE_DIR}/drivers/phone_imu/phone_imu_realdata.sh
+                 ${CMAKE_RUNTIME_OUTPUT_DIRECTORY})
+set_tests_properties(phone_imu_realdata PROPERTIES LABELS integration TIMEOUT 60)

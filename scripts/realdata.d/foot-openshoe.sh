@@ -1,0 +1,38 @@
+#!/usr/bin/env bash
+# foot-openshoe (vdouet/OpenShoe_C, OpenShoe's ISC sources; the folder's LICENSE is CC BY 4.0): a
+# foot-mounted IMU, 62.3 s at 820 Hz, rows ax, ay, az (m/s^2), gx, gy, gz (rad/s), no time column.
+#   ips-phone-imu --file "OpenShoe C/OpenShoeDataSet.txt" --columns ax,ay,az,gx,gy,gz --rate 820 \
+#     --device-id foot1 --out foot.lcm
+#   ips-replay foot.lcm --only ins --site site.yaml --out foot-replay.lcm
+#   ips-export foot-replay.lcm --channels POSE_INS --format csv --out foot-poses
+# site.yaml has no anchors and the tag foot1 starting at the origin, toes along +x (ips-ins's
+# defaults otherwise). There is no truth: the row gives the number of poses and, in `other`, the
+# track's horizontal path length (pose to pose, 10 Hz) and the distance from its end to its start.
+# The folder holds no plot or description of the walk's shape (the repository's README only says
+# its C port reproduces the Matlab results), so whether it is a loop is not known here.
+# Usage: foot-openshoe.sh <realdata-folder> <work-dir> <bin-dir>
+set -euo pipefail
+DATA=$1 WORK=$2 BIN=$3
+mkdir -p "$WORK"
+run() {
+  echo "+ $*" >&2
+  "$@" >&2 || { echo "foot-openshoe: failed: $(basename "$1") ${2:-} (status $?)" >&2; exit 1; }
+}
+f="$DATA/OpenShoe C/OpenShoeDataSet.txt"
+[ -f "$f" ] || { echo "foot-openshoe: no 'OpenShoe C/OpenShoeDataSet.txt' in $DATA" >&2; exit 1; }
+w="$WORK/foot"
+printf 'name: foot-openshoe\nanchors: []\ntags:\n  - {id: foot1, start_position: [0, 0, 0], start_heading_deg: 0}\n' \
+  >"$WORK/site.yaml"
+run "$BIN/ips-phone-imu" --file "$f" --columns ax,ay,az,gx,gy,gz --rate 820 --device-id foot1 \
+  --out "$w.lcm"
+run "$BIN/ips-replay" "$w.lcm" --only ins --site "$WORK/site.yaml" --out "$w-replay.lcm"
+run "$BIN/ips-export" "$w-replay.lcm" --channels POSE_INS --format csv --out "$w-poses"
+python3 - "$w-poses/POSE_INS.csv" <<'PY'
+import csv, math, sys
+p = [(float(r["position_x_m"]), float(r["position_y_m"])) for r in csv.DictReader(open(sys.argv[1]))]
+if not p:
+    sys.exit("foot-openshoe: ips-ins gave no pose")
+length = sum(math.dist(a, b) for a, b in zip(p, p[1:]))
+print("\t".join(["foot-openshoe", "OpenShoeDataSet", "ins", str(len(p)), "-", "-", "-", "-",
+                 "path %.1fm, end-start %.2fm" % (length, math.dist(p[0], p[-1])), "-"]))
+PY
