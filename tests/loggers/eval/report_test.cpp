@@ -12,6 +12,7 @@
 #include <numbers>
 #include <regex>
 #include <set>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -48,17 +49,26 @@ size_t count(const std::string& haystack, const std::string& needle) {
   return n;
 }
 
-// The `points` of every <polyline class="cls">, parsed into pixel coordinates.
+// The `points` of every <polyline class="cls">, parsed into pixel coordinates. (Not std::regex:
+// libstdc++'s matcher recurses once per character, and a 2000-point attribute overflows the
+// stack under ASan.)
 std::vector<std::vector<Point>> polylines(const std::string& svg, const std::string& cls) {
   std::vector<std::vector<Point>> out;
-  const std::regex line("<polyline class=\"" + cls + "\"[^>]*points=\"([^\"]*)\"");
-  for (auto it = std::sregex_iterator(svg.begin(), svg.end(), line); it != std::sregex_iterator();
-       ++it) {
+  const std::string open = "<polyline class=\"" + cls + "\"";
+  for (size_t at = svg.find(open); at != std::string::npos; at = svg.find(open, at + 1)) {
+    const size_t end = svg.find('>', at);
+    const size_t attr = svg.find("points=\"", at);
     std::vector<Point> pts;
-    const std::string s = (*it)[1];
-    const std::regex pair("(-?[0-9.]+),(-?[0-9.]+)");
-    for (auto p = std::sregex_iterator(s.begin(), s.end(), pair); p != std::sregex_iterator(); ++p)
-      pts.push_back({std::stod((*p)[1]), std::stod((*p)[2])});
+    if (attr != std::string::npos && attr < end) {
+      const size_t first = attr + 8, last = svg.find('"', first);
+      std::istringstream in(svg.substr(first, last - first));
+      std::string pair;
+      while (in >> pair) {
+        const size_t comma = pair.find(',');
+        if (comma == std::string::npos) break;
+        pts.push_back({std::stod(pair.substr(0, comma)), std::stod(pair.substr(comma + 1))});
+      }
+    }
     out.push_back(pts);
   }
   return out;
