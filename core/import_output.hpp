@@ -25,6 +25,14 @@ class ImportOutput {
     msg.encode(h.bytes.data(), 0, static_cast<int>(h.bytes.size()));
     held_.push_back(std::move(h));
   }
+  // Keeps an already encoded message (an event of an existing log, to merge into) at `utime`.
+  void add_encoded(const std::string& channel, int64_t utime, const uint8_t* data, size_t size) {
+    Held h;
+    h.utime = utime;
+    h.channel = channel_index(channel);
+    h.bytes.assign(data, data + size);
+    held_.push_back(std::move(h));
+  }
   int64_t size() const { return static_cast<int64_t>(held_.size()); }
   // First and last utime held (0 when none).
   int64_t first_utime() const;
