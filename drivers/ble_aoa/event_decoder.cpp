@@ -106,7 +106,13 @@ LineOutcome EventDecoder::decode(std::string_view line, int64_t utime_us) {
     out.reason = std::move(parsed.reason);
     return finish(std::move(out));
   }
-  const UudfEvent& e = parsed.event;
+  --stats_.lines;  // decode_event counts it
+  return decode_event(parsed.event, utime_us);
+}
+
+LineOutcome EventDecoder::decode_event(const UudfEvent& e, int64_t utime_us) {
+  ++stats_.lines;
+  LineOutcome out;
   const std::optional<AngleRange> range = range_for(e);
   if (!range) {
     out.kind = LineOutcome::Kind::kRangeUnknown;
@@ -136,7 +142,12 @@ LineOutcome EventDecoder::decode(std::string_view line, int64_t utime_us) {
   } else {
     msg_.anchor_id.assign(e.anchor_id);
   }
-  msg_.tag_id.assign(e.tag_id);
+  auto tag_renamed = config_.tag_names.find(e.tag_id);
+  if (tag_renamed != config_.tag_names.end()) {
+    msg_.tag_id = tag_renamed->second;
+  } else {
+    msg_.tag_id.assign(e.tag_id);
+  }
   msg_.azimuth_deg = static_cast<float>(az);
   msg_.elevation_deg = static_cast<float>(el);
   msg_.rssi_dbm = static_cast<float>(e.rssi_dbm);

@@ -42,6 +42,8 @@ struct EventDecoderConfig {
   double duplicate_window_s = 0.5;
   // Hardware anchor id (as in +UUDF) -> the id to publish (the site file's, e.g. "A1").
   std::map<std::string, std::string, std::less<>> anchor_names;
+  // The same for tag ids (e.g. the tag's MAC -> the site file's "T1").
+  std::map<std::string, std::string, std::less<>> tag_names;
 };
 
 struct LineOutcome {
@@ -80,6 +82,9 @@ class EventDecoder {
 
   // Decodes one line read at host time `utime_us`.
   LineOutcome decode(std::string_view line, int64_t utime_us);
+  // Decodes one event whose fields were already parsed and checked (a row of decoded +UUDF
+  // fields, uudf_table.hpp): kPublished, kDuplicate, kRangeUnknown or kError.
+  LineOutcome decode_event(const UudfEvent& event, int64_t utime_us);
   const EventDecoderStats& stats() const { return stats_; }
 
  private:

@@ -1,7 +1,8 @@
 // ips-ble-aoa: u-blox XPLR-AOA anchors (C211, u-connectLocate) on serial ports, one port each
 // -> ble_aoa_t on BLE_AOA, stamped with the host time each line was read. Keeps running while an
-// anchor is unplugged and reopens it when it returns. With --capture, replays a capture file of
-// the source experiments (PC time, port, +UUDF line) onto the bus or into an LCM log.
+// anchor is unplugged and reopens it when it returns. With --capture, reads files instead: the
+// source experiments' captures (PC time, port, +UUDF line) or files of decoded +UUDF fields (one
+// per anchor, uudf_table.hpp), merged in time order onto the bus or into an LCM log.
 #include <spdlog/spdlog.h>
 #include <sys/stat.h>
 #include <time.h>
@@ -21,16 +22,17 @@
 
 #include "core/channels.hpp"
 #include "core/cli.hpp"
+#include "core/import_output.hpp"
 #include "core/lcm_url.hpp"
 #include "core/line_buffer.hpp"
 #include "core/node.hpp"
-#include "core/paced_release.hpp"
-#include "core/progress.hpp"
+#include "core/table_text.hpp"
 #include "core/serial_port.hpp"
 #include "core/text_escape.hpp"
 #include "drivers/ble_aoa/at_enabler.hpp"
 #include "drivers/ble_aoa/capture_decoder.hpp"
 #include "drivers/ble_aoa/event_decoder.hpp"
+#include "drivers/ble_aoa/uudf_table.hpp"
 
 namespace {
 
@@ -189,36 +191,18 @@ int run_live(const ips::CommonOptions& opts, const std::vector<std::string>& dev
   return status;
 }
 
-// Reads `file` in chunks, hands every line over; on_line returns false to stop.
-template <class OnLine>
-bool for_each_line(std::FILE* file, int64_t size, OnLine&& on_line, ips::LineBuffer& lines,
-                   int64_t& offset) {
-  std::vector<char> buf(1 << 16);
-  bool go_on = true;
-  for (;;) {
-    const size_t n = std::fread(buf.data(), 1, buf.size(), file);
-    if (n == 0) break;
-    offset += static_cast<int64_t>(n);
-    const double fraction = size > 0 ? static_cast<double>(offset) / static_cast<double>(size) : 1;
-    lines.feed(std::string_view(buf.data(), n), [&](std::string_view line) {
-      if (go_on) go_on = on_line(line, fraction);
-    });
-    if (!go_on) return false;
-  }
-  const std::string rest = lines.take_partial();
-  if (!rest.empty()) return on_line(rest, 1.0);
-  return true;
-}
-
 struct CaptureCounts {
   int64_t lines = 0, published = 0, at_lines = 0, duplicates = 0, range_unknown = 0, errors = 0;
+  ips::table::ImportTally tally;  // for the verdict
 };
 
-void count(CaptureCounts& c, const LineOutcome& out, int64_t line_number) {
+void count(CaptureCounts& c, const LineOutcome& out, int64_t line_number, std::string_view line) {
   ++c.lines;
+  ++c.tally.lines;
   switch (out.kind) {
     case LineOutcome::Kind::kPublished:
       ++c.published;
+      ++c.tally.messages;
       break;
     case LineOutcome::Kind::kAtLine:
       ++c.at_lines;
@@ -232,8 +216,10 @@ void count(CaptureCounts& c, const LineOutcome& out, int64_t line_number) {
     case LineOutcome::Kind::kError:
       if (++c.errors <= kCaptureReasonsLogged)
         spdlog::warn("{}: capture line {}: {}", kProgram, line_number, out.reason);
-      break;
+      c.tally.reject(line_number, line, out.reason);
+      return;
   }
+  ++c.tally.rows;
 }
 
 void summarise(const CaptureCounts& c, const std::string& where) {
@@ -245,97 +231,171 @@ void summarise(const CaptureCounts& c, const std::string& where) {
       kProgram, c.lines, c.published, where, c.at_lines, c.duplicates, c.range_unknown, c.errors);
 }
 
-int write_capture_log(std::FILE* file, int64_t size, const std::string& out_path,
-                      const ips::CommonOptions& opts, const EventDecoderConfig& base,
-                      const CaptureDecoder::ZoneConversion& zone) {
-  lcm::LogFile log(out_path, "w");
-  if (!log.good()) {
-    ips::print_fatal(kProgram, "--out: cannot write '" + out_path + "'");
-    return 1;
-  }
-  const std::string channel = opts.channel(ips::channel::kBleAoa);
-  std::vector<uint8_t> buf;
-  bool write_failed = false;
-  int64_t eventnum = 0;
-  CaptureDecoder decoder(kProgram, base, zone, [&](const ips::ble_aoa_t& m) {
-    buf.resize(static_cast<size_t>(m.getEncodedSize()));
-    m.encode(buf.data(), 0, static_cast<int>(buf.size()));
-    lcm::LogEvent le;
-    le.eventnum = eventnum++;
-    le.timestamp = m.utime;
-    le.channel = channel;
-    le.datalen = static_cast<int32_t>(buf.size());
-    le.data = buf.data();
-    if (log.writeEvent(&le) != 0) write_failed = true;
-  });
-  ips::ProgressLine progress(kProgram);
-  ips::LineBuffer lines;
-  CaptureCounts counts;
-  int64_t offset = 0;
-  for_each_line(
-      file, size,
-      [&](std::string_view line, double fraction) {
-        count(counts, decoder.decode(line), counts.lines + 1);
-        progress.update(fraction, counts.published);
-        return !write_failed;
-      },
-      lines, offset);
-  // The log's last buffer is written at close: check it here, not in LogFile's silent destructor.
-  if (write_failed || std::fflush(log.getFilePtr()) != 0 || std::ferror(log.getFilePtr())) {
-    ips::print_fatal(kProgram, "write to '" + out_path + "' failed (disk full?)");
-    return 1;
-  }
-  progress.finish();
-  counts.errors += lines.overlong_lines();
-  summarise(counts, "written to " + out_path);
-  return 0;
+// "2025-03-17T22:02:20Z".
+std::string utc_text(int64_t utime) {
+  const std::time_t s = static_cast<std::time_t>(utime / 1'000'000);
+  std::tm tm{};
+  gmtime_r(&s, &tm);
+  char buf[32];
+  std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &tm);
+  return buf;
 }
 
-int publish_capture(std::FILE* file, int64_t size, const ips::CommonOptions& opts,
-                    const EventDecoderConfig& base, const CaptureDecoder::ZoneConversion& zone,
-                    double speed) {
-  ips::Node node(kProgram, opts);
+// What every --capture file was read with.
+struct CaptureSetup {
+  EventDecoderConfig base;
+  CaptureDecoder::ZoneConversion zone;  // capture-line files
+  ips::ble_aoa::UudfTableOptions table;  // decoded-field files
+};
+
+// What --capture counted over all files, for HEALTH on the bus.
+struct CaptureTotals {
+  int64_t lines = 0, errors = 0, drops = 0;
+};
+
+// The whole file as lines (without newlines): the LineBuffer's, so a line longer than it takes
+// is counted, not read.
+bool read_lines(const std::string& path, std::vector<std::string>& lines, int64_t& overlong,
+                std::string& error) {
+  std::unique_ptr<std::FILE, int (*)(std::FILE*)> file(std::fopen(path.c_str(), "rb"),
+                                                       &std::fclose);
+  if (!file) {
+    error = "cannot read '" + ips::printable(path) + "': " + std::strerror(errno);
+    return false;
+  }
+  ips::LineBuffer buffer;
+  std::vector<char> buf(1 << 16);
+  for (;;) {
+    const size_t n = std::fread(buf.data(), 1, buf.size(), file.get());
+    if (n == 0) break;
+    buffer.feed(std::string_view(buf.data(), n),
+                [&](std::string_view line) { lines.emplace_back(line); });
+  }
+  if (std::ferror(file.get())) {
+    error = "read error on '" + ips::printable(path) + "': " + std::strerror(errno);
+    return false;
+  }
+  std::string rest = buffer.take_partial();
+  if (!rest.empty()) lines.push_back(std::move(rest));
+  overlong = buffer.overlong_lines();
+  return true;
+}
+
+std::string base_name(const std::string& path) {
+  const size_t slash = path.find_last_of('/');
+  return slash == std::string::npos ? path : path.substr(slash + 1);
+}
+
+// One --capture file into `output`. The verdict line when it failed (nothing silent), else "".
+std::string import_capture_file(const std::string& path, const std::vector<std::string>& lines,
+                                int64_t overlong, const CaptureSetup& setup, bool only_file,
+                                const std::string& where, ips::ImportOutput& output,
+                                const std::string& channel, CaptureTotals& totals) {
+  auto sink = [&](const ips::ble_aoa_t& m) { output.add(channel, m); };
+  bool capture_lines = false;
+  for (const std::string& line : lines) {
+    if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
+    capture_lines = ips::ble_aoa::looks_like_capture_line(line);
+    break;
+  }
+  if (capture_lines) {
+    // The source experiments' capture: each port is an anchor of its own.
+    CaptureDecoder decoder(kProgram, setup.base, setup.zone, sink);
+    CaptureCounts counts;
+    int64_t n = 0;
+    for (const std::string& line : lines) count(counts, decoder.decode(line), ++n, line);
+    counts.errors += overlong;
+    counts.tally.bad += overlong;
+    summarise(counts, only_file ? where : "from " + path);
+    totals.lines += counts.lines;
+    totals.errors += counts.errors;
+    totals.drops += counts.duplicates + counts.range_unknown;
+    ips::table::ImportExpectation expected;
+    expected.input = path;
+    expected.columns = "date time,port,+UUDF line";
+    expected.separator = ',';
+    return ips::table::import_verdict(counts.tally, expected);
+  }
+  // Decoded +UUDF fields: the file is the anchor's, whatever port its logger read.
+  EventDecoderConfig config = setup.base;
+  config.source = std::string(kProgram) + ":" + base_name(path);
+  ips::ble_aoa::UudfTableDecoder decoder(setup.table, std::move(config), sink);
+  for (const std::string& line : lines) decoder.decode(line);
+  ips::table::ImportTally tally = decoder.tally();
+  tally.bad += overlong;
+  const ips::ble_aoa::EventDecoderStats& ev = decoder.events();
+  totals.lines += tally.lines;
+  totals.errors += tally.bad;
+  totals.drops += ev.duplicates + ev.range_unknown;
+  // A failed file says so in one line, nothing else.
+  if (std::string verdict = ips::table::import_verdict(tally, decoder.expectation(path));
+      !verdict.empty())
+    return verdict;
+  std::string text = path + ": " + std::to_string(tally.rows + tally.bad) + " rows (columns " +
+                     decoder.columns();
+  if (decoder.time_unit())
+    text += std::string(", time in ") + ips::table::time_unit_name(*decoder.time_unit());
+  text += "), " + std::to_string(tally.messages) + " events";
+  if (tally.messages > 0)
+    text += " from " + utc_text(decoder.first_utime()) + " to " + utc_text(decoder.last_utime());
+  text += ", " + std::to_string(ev.duplicates) + " duplicates dropped, " +
+          std::to_string(ev.range_unknown) + " dropped (angle range unknown), " +
+          std::to_string(tally.bad) + " rows rejected";
+  if (tally.bad > 0)
+    text += " (first: line " + std::to_string(tally.first_bad_line) + ": " +
+            tally.first_bad_reason + ")";
+  spdlog::info("{}: {}", kProgram, text);
+  return {};
+}
+
+// --capture FILE...: every file read whole, the events merged in time order, into an LCM log or
+// onto the bus.
+int run_capture(const std::vector<std::string>& paths, const std::string& out_path,
+                const ips::CommonOptions& opts, const CaptureSetup& setup, double speed) {
   const std::string channel = opts.channel(ips::channel::kBleAoa);
-  // Paced by the capture's own times: message k goes out (utime_k - utime_0) / speed after the
-  // first; a time earlier than one already sent (the logger's threads) goes out at once.
-  bool stopped = false;
-  ips::PacedRelease pace(node, speed);
-  CaptureDecoder decoder(kProgram, base, zone, [&](const ips::ble_aoa_t& m) {
-    if (stopped || !pace.wait(m.utime)) {
-      stopped = true;
-      return;
+  const std::string where = out_path.empty() ? "published" : "written to " + out_path;
+  ips::ImportOutput output;
+  CaptureTotals totals;
+  bool failed = false;
+  for (const std::string& path : paths) {
+    std::vector<std::string> lines;
+    int64_t overlong = 0;
+    std::string error;
+    if (!read_lines(path, lines, overlong, error)) {
+      ips::print_fatal(kProgram, "--capture: " + error);
+      return 1;
     }
-    node.publish(channel, m);
+    const std::string verdict = import_capture_file(path, lines, overlong, setup,
+                                                    paths.size() == 1, where, output, channel,
+                                                    totals);
+    if (!verdict.empty()) {
+      ips::print_fatal(kProgram, verdict);
+      failed = true;
+    }
+  }
+  if (failed) return 1;
+  if (paths.size() > 1)
+    spdlog::info("{}: {} events from {} files {}, {} to {}", kProgram, output.size(), paths.size(),
+                 where, utc_text(output.first_utime()), utc_text(output.last_utime()));
+  if (!out_path.empty()) {
+    if (const std::string error = output.write_log(out_path); !error.empty()) {
+      ips::print_fatal(kProgram, "--out: " + error);
+      return 1;
+    }
+    return 0;
+  }
+  return ips::run_reporting_errors(kProgram, [&] {
+    ips::Node node(kProgram, opts);
+    node.counters().msgs_in += totals.lines;
+    node.counters().parse_errors += totals.errors;
+    node.counters().drops += totals.drops;
+    spdlog::info("{}: replaying {} events on {} ({})", kProgram, output.size(),
+                 ips::effective_lcm_url(opts.lcm_url),
+                 speed > 0 ? "speed x" + std::to_string(speed) : std::string("as fast as possible"));
+    if (!output.publish(node, speed)) return 0;  // SIGINT/SIGTERM
+    node.publish_health();
+    return 0;
   });
-  spdlog::info("{}: replaying the capture on {} ({})", kProgram,
-               ips::effective_lcm_url(opts.lcm_url),
-               speed > 0 ? "speed x" + std::to_string(speed) : std::string("as fast as possible"));
-  ips::ProgressLine progress(kProgram);
-  ips::LineBuffer lines;
-  CaptureCounts counts;
-  int64_t offset = 0;
-  for_each_line(
-      file, size,
-      [&](std::string_view line, double fraction) {
-        const LineOutcome out = decoder.decode(line);
-        if (stopped) return false;
-        ++node.counters().msgs_in;
-        if (out.kind == LineOutcome::Kind::kError) ++node.counters().parse_errors;
-        if (out.kind == LineOutcome::Kind::kDuplicate ||
-            out.kind == LineOutcome::Kind::kRangeUnknown)
-          ++node.counters().drops;
-        count(counts, out, counts.lines + 1);
-        progress.update(fraction, counts.published);
-        return true;
-      },
-      lines, offset);
-  if (stopped) return 0;  // SIGINT/SIGTERM
-  progress.finish();
-  node.counters().parse_errors += lines.overlong_lines();
-  counts.errors += lines.overlong_lines();
-  node.publish_health();
-  summarise(counts, "published");
-  return 0;
 }
 
 }  // namespace
@@ -351,8 +411,10 @@ int main(int argc, char** argv) {
   ips::add_common_options(app, opts, {.lcm = true, .site = false, .channels = true});
   std::vector<std::string> devices, anchor_names, at_commands;
   ips::SerialLinkOptions serial;
-  std::string capture_path, out_path, zone_name = "UTC", angle_range_name = "pm90";
-  double speed = 1.0;
+  std::vector<std::string> capture_paths, tag_names;
+  std::string out_path, zone_name = "UTC", angle_range_name = "pm90";
+  std::string separator_name, columns, header_name = "auto", time_unit_name;
+  double speed = 0.0;
   bool as_fast = false, enable_events = false;
   EventDecoderConfig base;
   auto* o_device =
@@ -387,23 +449,47 @@ int main(int argc, char** argv) {
                  "publish anchor HWID (its id in +UUDF, e.g. the MAC 6C1DEBA09862) as ID, e.g. "
                  "the site file's A1 (repeatable)")
       ->type_name("HWID=ID");
-  auto* o_capture = app.add_option("--capture", capture_path,
-                                   "replay a capture file (date time,port,+UUDF line per line) "
-                                   "instead of reading devices")
-                        ->type_name("FILE");
+  app.add_option("--tag-name", tag_names,
+                 "publish tag HWID (its id in the events, e.g. a MAC or a number) as ID, e.g. the "
+                 "site file's T1 (repeatable)")
+      ->type_name("HWID=ID");
+  auto* o_capture =
+      app.add_option("--capture", capture_paths,
+                     "read files instead of devices: captures (date time,port,+UUDF line) or "
+                     "decoded +UUDF fields (time,tag,rssi,azimuth,elevation,channel,anchor,seq; "
+                     "one file per anchor), merged in time order")
+          ->type_name("FILE...")
+          ->expected(1, -1);
   auto* o_out = app.add_option("--out", out_path,
-                               "--capture: write a standard LCM log as fast as possible instead "
-                               "of publishing")
+                               "--capture: write a standard LCM log instead of publishing")
                     ->type_name("FILE.lcm");
-  auto* o_speed = app.add_option("--speed", speed, "--capture: playback speed factor")
-                      ->capture_default_str()
-                      ->check(CLI::Range(1e-3, 1e6));
-  auto* o_fast =
-      app.add_flag("--as-fast-as-possible", as_fast, "--capture: publish without pacing");
+  auto* o_speed =
+      app.add_option("--speed", speed,
+                     "--capture: publish paced by the files' times at this speed factor "
+                     "(default: as fast as possible)")
+          ->check(CLI::Range(1e-3, 1e6));
+  auto* o_fast = app.add_flag("--as-fast-as-possible", as_fast,
+                              "--capture: publish without pacing (the default)");
   auto* o_tz = app.add_option("--timezone", zone_name,
-                              "--capture: the zone of the capture's PC clock: UTC, +HH:MM, or a "
+                              "--capture: the zone of a capture's PC clock: UTC, +HH:MM, or a "
                               "name such as Europe/Prague")
                    ->capture_default_str();
+  auto* o_sep = app.add_option("--separator", separator_name,
+                               "decoded fields: , ; tab or space (default: detected)")
+                    ->type_name("SEP");
+  auto* o_columns =
+      app.add_option("--columns", columns,
+                     "decoded fields: the columns in order, of t,tag,rssi,azimuth,elevation,"
+                     "rssi2,channel,anchor,seq,uptime,user,uudf ('-' skips one; default: by the "
+                     "header's names, else detected)")
+          ->type_name("LIST");
+  auto* o_header = app.add_option("--header", header_name,
+                                   "decoded fields: auto, none (the first line is data) or yes")
+                       ->capture_default_str();
+  auto* o_unit = app.add_option("--time-unit", time_unit_name,
+                                "decoded fields: s, ms, us or ns for numeric times (default: "
+                                "guessed from the first epoch time; ISO-8601 always read)")
+                     ->type_name("UNIT");
   o_speed->excludes(o_fast);
   o_out->excludes(o_speed);
   o_out->excludes(o_fast);
@@ -421,7 +507,7 @@ int main(int argc, char** argv) {
   if (!capture && devices.empty())
     return usage_error("--device (one per anchor) or --capture is required");
   if (!capture) {
-    for (const auto* o : {o_out, o_speed, o_fast, o_tz})
+    for (const auto* o : {o_out, o_speed, o_fast, o_tz, o_sep, o_columns, o_header, o_unit})
       if (o->count() > 0) return usage_error(o->get_name() + " goes with --capture");
   } else if (o_enable->count() > 0) {
     return usage_error("--enable-events goes with --device");
@@ -451,25 +537,65 @@ int main(int argc, char** argv) {
     if (!base.anchor_names.emplace(hw, id).second)
       return usage_error("--anchor-name: " + hw + " is named twice");
   }
+  for (const std::string& spec : tag_names) {
+    const size_t eq = spec.find('=');
+    const std::string hw = spec.substr(0, eq);
+    const std::string id = eq == std::string::npos ? "" : spec.substr(eq + 1);
+    if (eq == std::string::npos || !ips::ble_aoa::valid_id(hw) || !ips::ble_aoa::valid_id(id))
+      return usage_error("--tag-name: '" + ips::printable(spec) +
+                         "' is not HWID=ID (each 1 to 32 of A-Za-z0-9_.:-)");
+    if (!base.tag_names.emplace(hw, id).second)
+      return usage_error("--tag-name: " + hw + " is named twice");
+  }
 
   if (capture) {
+    CaptureSetup setup;
+    setup.base = base;
     const auto zone = zone_conversion(zone_name);
     if (!zone)
       return usage_error("--timezone: '" + ips::printable(zone_name) +
                          "' is not UTC, +HH:MM or a zone name of the system's database");
-    std::unique_ptr<std::FILE, int (*)(std::FILE*)> file(std::fopen(capture_path.c_str(), "rb"),
-                                                         &std::fclose);
-    if (!file)
-      return usage_error("--capture: cannot read '" + ips::printable(capture_path) +
-                         "': " + std::strerror(errno));
-    struct stat st {};
-    if (fstat(fileno(file.get()), &st) != 0 || S_ISDIR(st.st_mode))
-      return usage_error("--capture: '" + ips::printable(capture_path) + "' is a directory");
-    const int64_t size = S_ISREG(st.st_mode) ? static_cast<int64_t>(st.st_size) : 0;
-    if (!out_path.empty()) return write_capture_log(file.get(), size, out_path, opts, base, *zone);
-    return ips::run_reporting_errors(kProgram, [&] {
-      return publish_capture(file.get(), size, opts, base, *zone, as_fast ? 0.0 : speed);
-    });
+    setup.zone = *zone;
+    if (o_sep->count() > 0) {
+      setup.table.read.separator = ips::table::separator_from_name(separator_name);
+      if (!setup.table.read.separator)
+        return usage_error("--separator: expected , ; tab or space, got '" +
+                           ips::printable(separator_name) + "'");
+    }
+    if (header_name == "none") {
+      setup.table.read.header = ips::table::HeaderMode::kNone;
+    } else if (header_name == "yes") {
+      setup.table.read.header = ips::table::HeaderMode::kPresent;
+    } else if (header_name != "auto") {
+      return usage_error("--header: expected auto, none or yes, got '" +
+                         ips::printable(header_name) + "'");
+    }
+    if (o_unit->count() > 0) {
+      setup.table.time_unit = ips::table::time_unit_from_name(time_unit_name);
+      if (!setup.table.time_unit)
+        return usage_error("--time-unit: expected s, ms, us or ns, got '" +
+                           ips::printable(time_unit_name) + "'");
+    }
+    if (o_columns->count() > 0) {
+      ips::table::Columns check;
+      if (const std::string problem =
+              check.set_from_list(columns, ips::ble_aoa::uudf_table_columns());
+          !problem.empty())
+        return usage_error("--columns: " + problem);
+      setup.table.columns = columns;
+    }
+    std::set<std::string> seen_files;
+    for (const std::string& path : capture_paths) {
+      struct stat st {};
+      if (stat(path.c_str(), &st) != 0)
+        return usage_error("--capture: cannot read '" + ips::printable(path) +
+                           "': " + std::strerror(errno));
+      if (S_ISDIR(st.st_mode))
+        return usage_error("--capture: '" + ips::printable(path) + "' is a directory");
+      if (!seen_files.insert(path).second)
+        return usage_error("--capture: '" + ips::printable(path) + "' is given twice");
+    }
+    return run_capture(capture_paths, out_path, opts, setup, as_fast ? 0.0 : speed);
   }
 
   if (!ips::serial_baud_supported(serial.baud))
