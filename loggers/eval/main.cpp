@@ -1,5 +1,6 @@
 // ips-eval: reads an LCM log and scores every pose channel (and ALTITUDE) against TRUTH, per
 // channel and tag or per channel.
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
@@ -224,6 +225,16 @@ int main(int argc, char** argv) {
                    ips::printable(dwell_path).c_str(), static_cast<long long>(t.bad),
                    static_cast<long long>(t.bad + t.rows), static_cast<long long>(t.first_bad_line),
                    t.first_bad_text.c_str(), t.first_bad_reason.c_str());
+    // A header that names its columns wrongly (the BLE dataset's 0317/gt/rectangular.csv) maps
+    // start and end onto one moment.
+    size_t zero_length = 0;
+    for (const auto& d : dwell->intervals) zero_length += d.start == d.end;
+    if (zero_length > 0)
+      std::fprintf(stderr,
+                   "ips-eval: warning: --dwell: %s: %zu of %zu intervals have no length (start = "
+                   "end; columns %s): check the columns, or name them with --dwell-columns\n",
+                   ips::printable(dwell_path).c_str(), zero_length, dwell->intervals.size(),
+                   dwell->columns.c_str());
   } else if (!dwell_columns.empty() || !dwell_time_unit.empty() || !dwell_unit.empty()) {
     ips::print_fatal("ips-eval",
                      "--dwell-columns, --dwell-time-unit and --dwell-unit need --dwell");
@@ -448,5 +459,11 @@ int main(int argc, char** argv) {
   if (truth == 0 && static_point.empty() && !ev.dwell_mode()) std::fprintf(stderr, "ips-eval: warning: no %s messages in %s\n", truth_channel.c_str(), log_path.c_str());
   if (rows.empty())
     std::fprintf(stderr, "ips-eval: warning: no pose estimates in %s\n", log_path.c_str());
+  else if (dwell && ev.unmatched() > 0 &&
+           std::none_of(rows.begin(), rows.end(), [](const auto& r) { return r.count > 0; }))
+    std::fprintf(stderr,
+                 "ips-eval: warning: no estimate is inside a dwell interval of %s (the file's "
+                 "times and the log's do not meet)\n",
+                 ips::printable(dwell_path).c_str());
   return 0;
 }

@@ -10,7 +10,8 @@
 #   - ALTITUDE rows in --json (count: every altitude with truth around it) and in the table;
 #   - 2D estimators (STATUS_2D) have rmse_v null / "-";
 #   - --dwell: a file (epoch ms, cm, header) with one interval equals --static-point over that
-#     interval; estimates outside are counted; the same on the log without TRUTH;
+#     interval; estimates outside are counted; the same on the log without TRUTH; a file whose
+#     intervals have no length or miss the log is a warning;
 #   - dwell-file errors: one line, status 2.
 set -euo pipefail
 BIN=$(cd "$1" && pwd)
@@ -231,6 +232,17 @@ else
 fi
 grep -q "warning: no TRUTH" "$WORK/dwell_no_truth.err" && fail "dwell mode warns about missing TRUTH" ||
   ok "dwell mode on a log without TRUTH: no warning about it"
+# A dwell file that names its columns wrongly (start and end on one moment), and one whose times
+# the log's do not meet: exit 0, a warning for each, not silence.
+printf 'End,Start,X,Y\n1577836800000,1577836800000,1,1\n' >"$WORK/zero.csv"
+status=0
+"$BIN/ips-eval" "$LOG" --dwell "$WORK/zero.csv" >/dev/null 2>"$WORK/err" || status=$?
+if [ "$status" -eq 0 ] && grep -q "^ips-eval: warning: --dwell: .*zero.csv: 1 of 1 intervals have no length" "$WORK/err" &&
+  grep -q "^ips-eval: warning: no estimate is inside a dwell interval of .*zero.csv" "$WORK/err"; then
+  ok "dwell file that does not meet the log: $(tr '\n' ' ' <"$WORK/err")"
+else
+  fail "dwell file that does not meet the log: status $status, $(cat "$WORK/err")"
+fi
 
 expect() {  # pattern, command...
   local pattern=$1 status=0
