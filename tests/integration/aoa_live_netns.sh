@@ -18,7 +18,7 @@ source "$ROOT/tests/integration/live_test_lib.sh"
 
 SPEED=10
 
-"$BIN/ips-bus-check" --timeout 3 || fail "multicast does not loop back inside the namespace"
+"$BIN/ips-bus-check" --timeout 30 || fail "multicast does not loop back inside the namespace"
 
 # rmse_of JSON CHANNEL -> "count rmse"
 row_of() {
@@ -33,10 +33,11 @@ run_live() {  # name, ips-aoa args...
   shift
   lcm-logger -q -f "$WORK/$name.lcm" & logger=$!; pids+=($logger)
   "$BIN/ips-aoa" --log-level warn "$@" & aoa=$!; pids+=($aoa)
-  "$BIN/ips-bus-check" --wait-for ips-aoa --timeout 20 || fail "ips-aoa did not come up"
-  sleep 0.2
+  "$BIN/ips-bus-check" --wait-for ips-aoa --timeout 60 || fail "ips-aoa did not come up"
+  logger_sync "$WORK/$name.lcm"
   "$BIN/ips-sim" --scenario aoa-hall --seed 1 --speed $SPEED --log-level warn
-  sleep 0.5
+  # Until ips-aoa has caught up with the 60 s the simulator published.
+  python3 "$HERE/log_wait.py" "$WORK/$name.lcm" --reach POSE_AOA --end-after-site 60 --pid $aoa
   stop $aoa ips-aoa
   stop $logger lcm-logger
 }

@@ -15,7 +15,7 @@ expect() {
   local want_status=$1 pattern=$2
   shift 2
   local status=0
-  timeout 20 "$@" >"$WORK/out" 2>"$WORK/err" || status=$?
+  timeout 60 "$@" >"$WORK/out" 2>"$WORK/err" || status=$?
   local lines
   lines=$(wc -l <"$WORK/err")
   if [ "$status" -ne "$want_status" ] || [ "$lines" -ne "${WANT_LINES:-1}" ] ||

@@ -33,19 +33,20 @@ check_bound() {  # log channel
   echo "$2: count $count rmse_h $rmse p95_h $p95 (bounds 0.15, 0.30): ok"
 }
 
-"$BIN/ips-bus-check" --timeout 3 || fail "multicast does not loop back inside the namespace"
+"$BIN/ips-bus-check" --timeout 30 || fail "multicast does not loop back inside the namespace"
 
 # --- 1: live ------------------------------------------------------------------------------
 lcm-logger -q -f "$WORK/live.lcm" & logger=$!; pids+=($logger)
 "$BIN/ips-uwb-twr" --log-level warn & twr=$!; pids+=($twr)
 # Start publishing only once the tracker is up (it reports on HEALTH as it starts) and the
-# logger has had time to subscribe.
-"$BIN/ips-bus-check" --wait-for ips-uwb-twr --timeout 20 || fail "ips-uwb-twr did not come up"
-sleep 0.2
+# logger has subscribed.
+"$BIN/ips-bus-check" --wait-for ips-uwb-twr --timeout 60 || fail "ips-uwb-twr did not come up"
+logger_sync "$WORK/live.lcm"
 start=$(date +%s.%N)
 "$BIN/ips-sim" --scenario lab --seed 1 --duration 60 --speed $SPEED --log-level warn
 echo "ips-sim: 60 s of lab at x$SPEED took $(awk -v s="$start" -v e="$(date +%s.%N)" 'BEGIN{printf "%.1f", e-s}') s"
-sleep 0.5
+# Until ips-uwb-twr has caught up with the 60 s the simulator published.
+python3 "$HERE/log_wait.py" "$WORK/live.lcm" --reach POSE_UWB --end-after-site 60 --pid $twr
 stop $twr ips-uwb-twr
 stop $logger lcm-logger
 check_bound "$WORK/live.lcm" POSE_UWB
@@ -71,12 +72,14 @@ awk -v a="$lr" -v b="$rr" -v c="$lc" -v d="$rc_" 'BEGIN {
 echo "live vs ips-replay: rmse_h $lr vs $rr, count $lc vs $rc_ (tolerance 0.01 m, 2 %): ok"
 
 # --- 2: replay with the real lcm-logplayer ----------------------------------------------------
-lcm-logger -q -f -c 'POSE_UWB_REPLAY' "$WORK/replay.lcm" & logger=$!; pids+=($logger)
+lcm-logger -q -f -c '(POSE_UWB_REPLAY|IPS_BUS_CHECK_.*)' "$WORK/replay.lcm" & logger=$!
+pids+=($logger)
 "$BIN/ips-uwb-twr" --channel POSE_UWB=POSE_UWB_REPLAY --log-level warn & twr=$!; pids+=($twr)
-"$BIN/ips-bus-check" --wait-for ips-uwb-twr --timeout 20 || fail "ips-uwb-twr did not come up"
-sleep 0.2
+"$BIN/ips-bus-check" --wait-for ips-uwb-twr --timeout 60 || fail "ips-uwb-twr did not come up"
+logger_sync "$WORK/replay.lcm"
 lcm-logplayer -s $SPEED -e '^(SITE|UWB_RANGE|TRUTH)$' "$WORK/live.lcm"
-sleep 0.5
+python3 "$HERE/log_wait.py" "$WORK/replay.lcm" --reach POSE_UWB_REPLAY --end-after-site 60 \
+  --site-log "$WORK/live.lcm" --pid $twr
 stop $twr ips-uwb-twr TERM
 stop $logger lcm-logger
 # Score the replayed estimates against the truth of the original log.

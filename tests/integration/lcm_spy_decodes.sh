@@ -50,7 +50,7 @@ if [ "${IPS_SPY_TEST_INNER:-}" != "1" ]; then
     skip "cannot create a network namespace here (need root or unprivileged user namespaces)"
   # timeout: hard bound on the whole run. On expiry it signals its whole process group (this
   # script and everything it started; none of them leaves the group), TERM then KILL.
-  IPS_SPY_TEST_INNER=1 exec timeout -k 5 90 unshare "${ns[@]}" "$0" "$@"
+  IPS_SPY_TEST_INNER=1 exec timeout -k 5 110 unshare "${ns[@]}" "$0" "$@"
 fi
 
 # --- inside the network namespace ---------------------------------------------------------------
@@ -110,7 +110,7 @@ Xvfb -displayfd 3 -screen 0 1600x900x24 -nolisten tcp -nolisten unix \
   >"$WORK/xvfb.log" 2>&1 3>"$WORK/display" &
 xvfb=$!
 pids+=("$xvfb")
-wait_for "$WORK/display" '^[0-9]+$' 10 $xvfb
+wait_for "$WORK/display" '^[0-9]+$' 30 $xvfb
 DISPLAY=:$(head -n1 "$WORK/display")
 export DISPLAY
 echo "Xvfb on $DISPLAY"
@@ -342,7 +342,7 @@ public class SpyProbe {
       });
       check(clicked, "double-clicked the " + ch + " row");
       JFrame viewer = null;
-      long until = System.nanoTime() + 5_000_000_000L;
+      long until = System.nanoTime() + 30_000_000_000L;
       while (viewer == null && System.nanoTime() < until && uncaught.isEmpty()) {
         viewer = onEdt(() -> {
           for (Frame f : Frame.getFrames())
@@ -376,7 +376,7 @@ EOF
 javac -nowarn -cp "$LCM_JAR" -d "$WORK/probe" "$WORK/SpyProbe.java" || fail "javac SpyProbe.java"
 CP="$LCM_JAR:$JAR:$CHART_JAR:$WORK/probe"
 
-java -Djava.net.preferIPv4Stack=true -Xmx256m -cp "$CP" SpyProbe --lcm-url="$URL" --timeout=30 \
+java -Djava.net.preferIPv4Stack=true -Xmx256m -cp "$CP" SpyProbe --lcm-url="$URL" --timeout=60 \
   --open=UWB_RANGE --screenshot="$WORK/spy.png" \
   SITE=site_t TRUTH=pose_t UWB_RANGE=uwb_range_t HEALTH=health_t >"$WORK/probe.out" 2>&1 &
 probe=$!
@@ -387,11 +387,12 @@ pids+=("$probe")
 script=$!
 pids+=("$script")
 
-wait_for "$WORK/probe.out" '^READY$' 25 $probe
-wait_for "$WORK/script.out" 'Found [0-9]+ plugins' 15 $script
+wait_for "$WORK/probe.out" '^READY$' 60 $probe
+wait_for "$WORK/script.out" 'Found [0-9]+ plugins' 60 $script
 
 # --- traffic ------------------------------------------------------------------------------------
-"$BIN/ips-sim" --scenario lab --duration 10 --log-level warn --lcm-url "$URL" &
+# Traffic for as long as the probe may wait for every channel (the cleanup stops it).
+"$BIN/ips-sim" --scenario lab --duration 120 --log-level warn --lcm-url "$URL" &
 sim=$!
 pids+=("$sim")
 

@@ -8,7 +8,14 @@
 #   forget PID      a reaped process, so that the cleanup never signals a reused pid
 #   stop PID NAME [SIGNAL]  SIGINT (or SIGNAL) and wait; fails unless it exits with status 0
 #   fail MESSAGE    "FAIL: MESSAGE" on stderr, exit 1
+#   logger_sync FILE    publishes a probe (ips-bus-check, channel IPS_BUS_CHECK_<pid>) and waits
+#                   until the lcm-logger writing FILE has recorded it: the logger is subscribed,
+#                   and has recorded (or lost) everything published before (at most 60 s;
+#                   runs $BIN/ips-bus-check)
 # and exports LCM_DEFAULT_URL (the namespace's bus) and PYTHONPATH (tests/integration: lcm_log.py).
+# Waiting for a message: `ips-bus-check --wait-for NAME` (a process is up), logger_sync (a
+# logger is up, or has caught up), log_wait.py (a log holds an event: an estimator has caught
+# up with the simulator); never a fixed sleep, which a loaded machine can overrun.
 IPS_TEST_LIB_DIR=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
 if [ "${IPS_IN_NETNS:-}" != "1" ]; then
   IPS_IN_NETNS=1 exec "$IPS_TEST_LIB_DIR/../../scripts/netns-run" "$0" "$@"
@@ -30,6 +37,20 @@ forget() {
   local kept=() p
   for p in "${pids[@]}"; do [ "$p" = "$1" ] || kept+=("$p"); done
   pids=("${kept[@]}")
+}
+probes_in() { { grep -ao 'IPS_BUS_CHECK_' "$1" 2>/dev/null || true; } | wc -l; }
+logger_sync() {
+  local before deadline=$((SECONDS + 60)) i
+  before=$(probes_in "$1")
+  while [ "$SECONDS" -lt "$deadline" ]; do
+    # A probe sent before the logger subscribed is not recorded: send again after 1 s.
+    "${BIN:?}/ips-bus-check" --timeout 30 >/dev/null || fail "multicast does not loop back"
+    for i in $(seq 20); do
+      [ "$(probes_in "$1")" -gt "$before" ] && return 0
+      sleep 0.05  # lcm-logger flushes every 100 ms
+    done
+  done
+  fail "the lcm-logger writing $1 recorded no probe within 60 s"
 }
 stop() {
   kill -"${3:-INT}" "$1"

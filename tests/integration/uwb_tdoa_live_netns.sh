@@ -17,18 +17,19 @@ source "$ROOT/tests/integration/live_test_lib.sh"
 
 SPEED=10
 
-"$BIN/ips-bus-check" --timeout 3 || fail "multicast does not loop back inside the namespace"
+"$BIN/ips-bus-check" --timeout 30 || fail "multicast does not loop back inside the namespace"
 
 lcm-logger -q -f "$WORK/live.lcm" & logger=$!; pids+=($logger)
 "$BIN/ips-uwb-tdoa" --log-level warn & tdoa=$!; pids+=($tdoa)
-# Publish only once the tracker is up (it reports on HEALTH as it starts) and the logger has had
-# time to subscribe.
-"$BIN/ips-bus-check" --wait-for ips-uwb-tdoa --timeout 20 || fail "ips-uwb-tdoa did not come up"
-sleep 0.2
+# Publish only once the tracker is up (it reports on HEALTH as it starts) and the logger has
+# subscribed.
+"$BIN/ips-bus-check" --wait-for ips-uwb-tdoa --timeout 60 || fail "ips-uwb-tdoa did not come up"
+logger_sync "$WORK/live.lcm"
 start=$(date +%s.%N)
 "$BIN/ips-sim" --scenario tdoa-hall --seed 1 --speed $SPEED --log-level warn
 echo "ips-sim: 120 s of tdoa-hall at x$SPEED took $(awk -v s="$start" -v e="$(date +%s.%N)" 'BEGIN{printf "%.1f", e-s}') s"
-sleep 0.5
+# Until ips-uwb-tdoa has caught up with the 120 s the simulator published.
+python3 "$HERE/log_wait.py" "$WORK/live.lcm" --reach POSE_TDOA --end-after-site 120 --pid $tdoa
 stop $tdoa ips-uwb-tdoa
 stop $logger lcm-logger
 

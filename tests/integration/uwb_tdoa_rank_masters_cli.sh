@@ -61,7 +61,7 @@ expect() {
   local want_status=$1 pattern=$2
   shift 2
   local status=0
-  timeout 20 "$@" >"$WORK/out" 2>"$WORK/err" || status=$?
+  timeout 60 "$@" >"$WORK/out" 2>"$WORK/err" || status=$?
   if [ "$status" -ne "$want_status" ] || [ "$(wc -l <"$WORK/err")" -ne 1 ] ||
     ! grep -Eq -- "$pattern" "$WORK/err"; then
     fail "$* -> status $status (want $want_status): $(cat "$WORK/err")"
