@@ -466,6 +466,7 @@ int main(int argc, char** argv) {
                "a log. Output is sorted by time and depends only on the files.",
                kProgram};
   app.require_subcommand(1);
+  app.fallthrough();  // --lcm-url and --log-level after the subcommand too
   ips::CommonOptions opts;
   ips::add_common_options(app, opts, {.lcm = true, .site = false, .channels = false});
 
