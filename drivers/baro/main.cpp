@@ -589,6 +589,8 @@ int main(int argc, char** argv) {
       return usage_error("--file replaces --iio and --serial");
     for (const auto* o : {o_rate, o_osr, o_root, o_baud})
       if (o->count() > 0) return usage_error(o->get_name() + " does not go with --file");
+    if (!fs.out.empty() && fs.speed > 0)
+      return usage_error("--speed paces publishing on the bus: it does not go with --out");
     std::string why;
     for (const std::string& text : file_specs) {
       SensorSpec spec{SensorSpec::Kind::kFile, device, text};

@@ -179,6 +179,8 @@ expect_error_saying "--columns, --units" "$baro" --iio T1=bmp280 --columns p,t
 expect_error_saying "with several files give each its sensor id (--file ID=F)" \
   "$baro" --file a.log --file b.log
 expect_error_saying "cannot read 'missing.log'" "$baro" --file missing.log --rate 1
+expect_error_saying "--speed paces publishing on the bus: it does not go with --out" \
+  "$baro" --file pt.log --rate 1 --out x.lcm --speed 2
 expect_error_saying "--start-reference X: no such sensor" "$baro" --file pt.log --rate 1 \
   --start-reference X
 echo PASS
