@@ -144,6 +144,15 @@ printf '%s\n' "BARO T1.start 1704067200000000 101322.810 21.465 nan 1 0.00" \
 diff want.txt got.txt || fail "stdin with --start-reference"
 echo "ok: stdin, --start-reference"
 
+# --- on the bus instead of --out (LCM's in-process memq: no network needed), as fast as
+# possible and paced by the file's times -----------------------------------------------------
+for speed in 0 1; do
+  "$baro" --file pt.log --rate 5 --file-start 1704067200 --lcm-url memq:// --speed $speed \
+    2>err.txt || fail "bus, --speed $speed: $(cat err.txt)"
+  grep -qx "ips-baro: published 2 messages on BARO" err.txt || fail "bus: $(cat err.txt)"
+done
+echo "ok: published on the bus"
+
 # --- nothing silent ------------------------------------------------------------------------
 printf '%s\n' "967128;973004;26525" "966294;972795;26525" "966300;972850;26530" >semicolon.log
 expect_import_error "semicolon.log: 0 messages from 3 lines; no line looks like data (the first reads '967128;973004;26525'); looks semicolon-separated: try --separator ;" \
