@@ -37,7 +37,8 @@ run_live() {  # name, ips-aoa args...
   logger_sync "$WORK/$name.lcm"
   "$BIN/ips-sim" --scenario aoa-hall --seed 1 --speed $SPEED --log-level warn
   # Until ips-aoa has caught up with the 60 s the simulator published.
-  python3 "$HERE/log_wait.py" "$WORK/$name.lcm" --reach POSE_AOA --end-after-site 60 --pid $aoa
+  python3 "$HERE/log_wait.py" "$WORK/$name.lcm" --reach POSE_AOA --end-after-site 60 --pid $aoa \
+    --or-idle ips-aoa
   stop $aoa ips-aoa
   stop $logger lcm-logger
 }

@@ -46,7 +46,8 @@ start=$(date +%s.%N)
 "$BIN/ips-sim" --scenario lab --seed 1 --duration 60 --speed $SPEED --log-level warn
 echo "ips-sim: 60 s of lab at x$SPEED took $(awk -v s="$start" -v e="$(date +%s.%N)" 'BEGIN{printf "%.1f", e-s}') s"
 # Until ips-uwb-twr has caught up with the 60 s the simulator published.
-python3 "$HERE/log_wait.py" "$WORK/live.lcm" --reach POSE_UWB --end-after-site 60 --pid $twr
+python3 "$HERE/log_wait.py" "$WORK/live.lcm" --reach POSE_UWB --end-after-site 60 --pid $twr \
+  --or-idle ips-uwb-twr
 stop $twr ips-uwb-twr
 stop $logger lcm-logger
 check_bound "$WORK/live.lcm" POSE_UWB
@@ -72,14 +73,14 @@ awk -v a="$lr" -v b="$rr" -v c="$lc" -v d="$rc_" 'BEGIN {
 echo "live vs ips-replay: rmse_h $lr vs $rr, count $lc vs $rc_ (tolerance 0.01 m, 2 %): ok"
 
 # --- 2: replay with the real lcm-logplayer ----------------------------------------------------
-lcm-logger -q -f -c '(POSE_UWB_REPLAY|IPS_BUS_CHECK_.*)' "$WORK/replay.lcm" & logger=$!
+lcm-logger -q -f -c '(POSE_UWB_REPLAY|HEALTH|IPS_BUS_CHECK_.*)' "$WORK/replay.lcm" & logger=$!
 pids+=($logger)
 "$BIN/ips-uwb-twr" --channel POSE_UWB=POSE_UWB_REPLAY --log-level warn & twr=$!; pids+=($twr)
 "$BIN/ips-bus-check" --wait-for ips-uwb-twr --timeout 60 || fail "ips-uwb-twr did not come up"
 logger_sync "$WORK/replay.lcm"
 lcm-logplayer -s $SPEED -e '^(SITE|UWB_RANGE|TRUTH)$' "$WORK/live.lcm"
 python3 "$HERE/log_wait.py" "$WORK/replay.lcm" --reach POSE_UWB_REPLAY --end-after-site 60 \
-  --site-log "$WORK/live.lcm" --pid $twr
+  --site-log "$WORK/live.lcm" --pid $twr --or-idle ips-uwb-twr
 stop $twr ips-uwb-twr TERM
 stop $logger lcm-logger
 # Score the replayed estimates against the truth of the original log.

@@ -9,6 +9,10 @@ once when the process --pid (the writer or the producer) has exited.
       least the end of the simulation less S seconds (default 1): the end is the first SITE's
       utime in REF (default: the LOG) plus D seconds (the scenario's duration). This is how a
       test knows a live estimator has caught up with everything the simulator published.
+      With --or-idle NAME it also ends once process NAME has handled no message between two of
+      its HEALTH reports logged after the wait began (msgs_in unchanged): it has taken all it
+      will, even when the bus lost the last inputs (UDP under load) and no estimate reaches
+      the end.
   log_wait.py LOG... --last-of REF
       the last event of REF that is not HEALTH, the same channel and bytes: a recorder has
       written everything a simulator published (REF: the same run written to a file).
@@ -25,6 +29,7 @@ import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import lcm_log  # noqa: E402
+import lcm_messages  # noqa: E402
 
 
 def utime(data):
@@ -73,6 +78,7 @@ def main():
     p.add_argument('--end-after-site', type=float)
     p.add_argument('--site-log')
     p.add_argument('--slack', type=float, default=1.0)
+    p.add_argument('--or-idle')
     p.add_argument('--last-of')
     p.add_argument('--events', type=int)
     p.add_argument('--pid', type=int)
@@ -97,10 +103,24 @@ def main():
     t0 = time.time()
     deadline = t0 + a.timeout
     reader = Reader(a.log)
-    count = reached = 0
-    newest = None
+    count = reached = polls = 0
+    newest = idle_in = None
     while True:
         new = reader.poll()
+        polls += 1
+        if a.or_idle and polls > 1:
+            idle = False
+            for c, _, d in new:
+                if c == 'HEALTH':
+                    h = lcm_messages.health(d)
+                    if h['source'] == a.or_idle:
+                        idle = idle or h['msgs_in'] == idle_in
+                        idle_in = h['msgs_in']
+            if idle:
+                short = '?' if end is None or newest is None else f'{(end - newest) / 1e6:.1f}'
+                print(f'log_wait: {a.or_idle} idle (msgs_in {idle_in}) with {reached} {a.reach}, '
+                      f'the newest {short} s short')
+                break
         count += len(new)
         if a.events is not None:
             what = f'{count} of {a.events} events'

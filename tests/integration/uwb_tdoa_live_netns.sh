@@ -29,7 +29,8 @@ start=$(date +%s.%N)
 "$BIN/ips-sim" --scenario tdoa-hall --seed 1 --speed $SPEED --log-level warn
 echo "ips-sim: 120 s of tdoa-hall at x$SPEED took $(awk -v s="$start" -v e="$(date +%s.%N)" 'BEGIN{printf "%.1f", e-s}') s"
 # Until ips-uwb-tdoa has caught up with the 120 s the simulator published.
-python3 "$HERE/log_wait.py" "$WORK/live.lcm" --reach POSE_TDOA --end-after-site 120 --pid $tdoa
+python3 "$HERE/log_wait.py" "$WORK/live.lcm" --reach POSE_TDOA --end-after-site 120 \
+  --pid $tdoa --or-idle ips-uwb-tdoa
 stop $tdoa ips-uwb-tdoa
 stop $logger lcm-logger
 
