@@ -35,9 +35,10 @@ HttpServerOptions any_port() {
   return o;
 }
 
-// Spins the node until `done` (called once per turn) or a second has passed; false on the latter.
+// Spins the node until `done` (called once per turn) or 30 s have passed; false on the latter
+// (a generous bound: a loaded machine running the sanitizer build can take a while).
 bool spin_until(Node& node, const std::function<bool()>& done) {
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(1);
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
   while (!done()) {
     if (std::chrono::steady_clock::now() > deadline) return false;
     node.spin_once(5);
