@@ -406,6 +406,11 @@ int run_poses(const InputFlags& f, const PoseFlags& p, const ips::CommonOptions&
   const bool truth = f.channel == ips::channel::kTruth;
   o.source = !p.source.empty() ? p.source : truth ? "truth" : "ips-import";
   o.cov = truth ? 0.0 : std::numeric_limits<double>::quiet_NaN();
+  if (p.dwell && (f.rate > 0 || !f.file_start.empty() || !f.row_tag.empty() || f.header != "auto")) {
+    ips::print_fatal(kProgram, "--dwell reads start and end times from the file: it takes no --rate, "
+                               "--file-start, --row-tag or --header");
+    return kUsage;
+  }
   if (p.dwell && !o.lever_arms.empty()) {
     ips::print_fatal(kProgram, "--dwell takes no --lever-arm (dwell files have no orientation)");
     return kUsage;

@@ -144,6 +144,9 @@ if run 0 "$IMPORT" poses "$WORK/dwell.csv" --dwell --unit cm --tag T1 --channel 
     fail "dwell: $(events "$WORK/d.lcm" | wc -l) events"
 fi
 
+expect_one_error 2 "--dwell reads start and end times from the file" \
+  "$IMPORT" poses "$WORK/dwell.csv" --dwell --rate 10 --tag T1 --channel TRUTH --out "$WORK/x.lcm"
+
 # 6. A site into a log: SITE first and every 5 s by the log's times, in place (temp + rename).
 printf 'time,x,y\n' >"$WORK/long.csv"
 for i in $(seq 0 120); do printf '17000000%02d.%d,1,2\n' $((i / 10)) $((i % 10)) >>"$WORK/long.csv"; done
