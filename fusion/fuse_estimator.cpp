@@ -372,7 +372,10 @@ void FuseEstimator::count_absolute(Snapshot& s, utime_t t, bool accepted, bool l
 }
 
 void FuseEstimator::add(const std::string& tag_id, Track& t, Measurement m) {
-  if (!t.initialised) return;
+  if (!t.initialised) {
+    ++stats_.waiting_start;
+    return;
+  }
   const utime_t from = m.kind == Measurement::Kind::kDisplacement ? m.t0 : m.t;
   const utime_t window = s_to_utime(params_.max_delay_s);
   if (from < t.base.t) {  // before anything the track can roll back to
@@ -486,9 +489,37 @@ void FuseEstimator::on_range(const uwb_range_t& m) {
     t->init_ranges.push_back(r);
     if (t->init_ranges.size() > 64) t->init_ranges.pop_front();
     try_start_from_ranges(m.tag_id, *t);
+    if (!t->initialised) ++stats_.waiting_start;
     return;
   }
   add(m.tag_id, *t, r);
+}
+
+DropReasons FuseEstimator::drop_reasons() const {
+  const FuseStats& s = stats_;
+  DropReasons d;
+  d.add(DropReason::kNoSite, s.dropped_no_site);
+  d.add(DropReason::kInvalid, s.dropped_invalid);
+  d.add(DropReason::kUnknownAnchor, s.dropped_unknown_anchor);
+  d.add(DropReason::kLate, s.dropped_late);
+  d.add(DropReason::kTooManyTags, s.dropped_too_many_tags);
+  d.add(DropReason::kOtherSource, s.dropped_other_source);
+  d.add(DropReason::kSuperseded, s.poses_superseded);
+  d.add(DropReason::kInitialising, s.waiting_start);
+  d.add(DropReason::kGated, s.ranges_rejected + s.tdoa_epochs_rejected + s.angles_rejected +
+                                s.heights_rejected + s.poses_rejected);
+  // The receptions the hosted blink and angle grouping refused; how its own trackers fare (gated,
+  // no fix yet) is theirs, not the fusion's.
+  for (const DropReasons& hosted : {tdoa_.drop_reasons(), aoa_.drop_reasons()}) {
+    for (size_t i = 0; i < DropReasons::kNumReasons; ++i) {
+      const auto r = static_cast<DropReason>(i);
+      if (r == DropReason::kGated || r == DropReason::kInitialising ||
+          r == DropReason::kTooFewAnchors || r == DropReason::kNoFix)
+        continue;
+      d.add(r, hosted.count(r));
+    }
+  }
+  return d;
 }
 
 bool FuseEstimator::have_site_for_raw() {
@@ -632,7 +663,10 @@ void FuseEstimator::on_step(const step_t& m) {
   }
   t->have_last_dr = true;
   t->last_dr_t = m.utime;
-  if (!t->initialised) return;  // a step says nothing of where the tag is
+  if (!t->initialised) {  // a step says nothing of where the tag is
+    ++stats_.waiting_start;
+    return;
+  }
   Measurement d;
   d.kind = Measurement::Kind::kDisplacement;
   d.t0 = t0;

@@ -40,6 +40,7 @@
 #include <variant>
 #include <vector>
 
+#include "core/drop_reasons.hpp"
 #include "core/pose_tally.hpp"
 #include "core/site.hpp"
 #include "estimators/aoa/aoa_estimator.hpp"
@@ -105,6 +106,7 @@ struct FuseStats {
   int64_t dropped_no_site = 0;
   int64_t dropped_too_many_tags = 0;
   int64_t dropped_other_source = 0;  // displacements of a second source for the same tag
+  int64_t waiting_start = 0;         // measurements of a tag whose track has not started yet
   int64_t rollbacks = 0;             // late messages fused in order
   int64_t initialisations = 0;
   int64_t hosted_starts = 0;  // of those, from the hosted TDoA/AoA trackers (blinks or angles only)
@@ -144,6 +146,10 @@ class FuseEstimator {
   const uwb_tdoa::TdoaStats& tdoa_stats() const { return tdoa_.stats(); }
   // The BLE_AOA side: ips-aoa's calibration and grouping counters.
   const aoa::AoaStats& aoa_stats() const { return aoa_.stats(); }
+  // The inputs that were not fused, by reason (HEALTH, ips-replay's summary): the fusion's own,
+  // and the UWB_RX / BLE_AOA receptions its blink and angle grouping could not use (gated
+  // and initialising count measurements of a tag, not messages).
+  DropReasons drop_reasons() const;
   const FuseParams& params() const { return params_; }
   // The tag's current state, for tests.
   std::optional<FuseFilter> filter(const std::string& tag_id) const;

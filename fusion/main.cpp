@@ -7,6 +7,7 @@
 
 #include "core/channels.hpp"
 #include "core/cli.hpp"
+#include "core/drop_reasons.hpp"
 #include "core/node.hpp"
 #include "core/site_source.hpp"
 #include "fusion/fuse_estimator.hpp"
@@ -36,44 +37,16 @@ int main(int argc, char** argv) {
     const std::string out = opts.channel(ips::channel::kPoseFused);
     ips::fusion::FuseEstimator est([&](const ips::pose_t& p) { node.publish(out, p); });
     ips::provide_site(node, [&](const ips::Site& site) { est.set_site(site); });
-    int64_t reported = 0;
-    auto account = [&] {
-      const auto& s = est.stats();
-      const auto& x = est.tdoa_stats();
-      const int64_t rx_drops = x.dropped_invalid + x.dropped_unknown_anchor + x.dropped_late +
-                               x.dropped_duplicate + x.dropped_too_many_tags;
-      const auto& b = est.aoa_stats();
-      const int64_t aoa_drops = b.dropped_invalid + b.dropped_unknown_anchor +
-                                b.dropped_outside_calibration + b.dropped_late +
-                                b.dropped_too_many_tags;
-      const int64_t drops = s.dropped_invalid + s.dropped_unknown_anchor + s.dropped_late +
-                            s.dropped_no_site + s.dropped_too_many_tags + s.dropped_other_source +
-                            rx_drops + aoa_drops;
-      if (drops == reported) return;
-      node.counters().drops += drops - reported;
-      reported = drops;
-      node.report_error("dropped: " + std::to_string(s.dropped_invalid) + " invalid, " +
-                        std::to_string(s.dropped_unknown_anchor) + " unknown anchor, " +
-                        std::to_string(s.dropped_late) + " later than max_delay_s, " +
-                        std::to_string(s.dropped_no_site) + " before a site, " +
-                        std::to_string(s.dropped_too_many_tags) + " beyond max_tags, " +
-                        std::to_string(s.dropped_other_source) +
-                        " from a second dead-reckoning source; UWB_RX: " +
-                        std::to_string(x.dropped_invalid) + " invalid, " +
-                        std::to_string(x.dropped_unknown_anchor) + " unknown anchor, " +
-                        std::to_string(x.dropped_late + x.dropped_duplicate) +
-                        " late or repeated, " + std::to_string(x.dropped_too_many_tags) +
-                        " beyond max_tags");
-    };
+    // Inputs that were not fused, by reason, in HEALTH (drops, last_error) once a second.
+    ips::DropHealth drop_health;
+    node.add_timer(1.0, [&] { drop_health.report(node, est.drop_reasons()); });
     node.subscribe<ips::uwb_range_t>(opts.channel(ips::channel::kUwbRange),
                                      [&](const ips::uwb_range_t& m, const std::string&) {
                                        est.on_range(m);
-                                       account();
                                      });
     node.subscribe<ips::uwb_rx_t>(opts.channel(ips::channel::kUwbRx),
                                   [&](const ips::uwb_rx_t& m, const std::string&) {
                                     est.on_rx(m);
-                                    account();
                                   });
     // An advertisement's angles are fused when its epoch closes: at the next event, or when the
     // bus has been quiet for the epoch window (message time estimated from the host clock).
@@ -86,7 +59,6 @@ int main(int argc, char** argv) {
                                        last_aoa_host = ips::wall_utime_now();
                                      }
                                      est.on_aoa(m);
-                                     account();
                                    });
     node.add_timer(0.02, [&] {
       if (last_aoa_utime != 0)
@@ -95,34 +67,28 @@ int main(int argc, char** argv) {
     node.subscribe<ips::imu_t>(opts.channel(ips::channel::kImu),
                                [&](const ips::imu_t& m, const std::string&) {
                                  est.on_imu(m);
-                                 account();
                                });
     node.subscribe<ips::pose_t>(opts.channel(ips::channel::kInsModule),
                                 [&](const ips::pose_t& m, const std::string&) {
                                   est.on_ins_module(m);
-                                  account();
                                 });
     node.subscribe<ips::pose_t>(opts.channel(ips::channel::kPoseIns),
                                 [&](const ips::pose_t& m, const std::string&) {
                                   est.on_pose_ins(m);
-                                  account();
                                 });
     node.subscribe<ips::step_t>(opts.channel(ips::channel::kStep),
                                 [&](const ips::step_t& m, const std::string&) {
                                   est.on_step(m);
-                                  account();
                                 });
     node.subscribe<ips::altitude_t>(opts.channel(ips::channel::kAltitude),
                                     [&](const ips::altitude_t& m, const std::string&) {
                                       est.on_altitude(m);
-                                      account();
                                     });
     for (const char* kind : {ips::channel::kPoseTdoa, ips::channel::kPoseAoa}) {
       const std::string name = kind;
       node.subscribe<ips::pose_t>(opts.channel(kind),
                                   [&, name](const ips::pose_t& m, const std::string&) {
                                     est.on_pose(m, name == ips::channel::kPoseTdoa ? "tdoa" : "aoa");
-                                    account();
                                   });
     }
     return node.run();

@@ -24,6 +24,7 @@
 #include <utility>
 
 #include "core/cv_filter.hpp"
+#include "core/drop_reasons.hpp"
 #include "core/site.hpp"
 #include "estimators/altitude/floor_detector.hpp"
 #include "estimators/altitude/reference_series.hpp"
@@ -69,6 +70,21 @@ struct AltitudeStats {
   int64_t dropped_stale_reference = 0;           // the reference's newest reading too old
   int64_t reference_switches = 0;
   int64_t altitudes_out = 0;
+
+  // The readings that gave no altitude, by reason (HEALTH, ips-replay's summary); a reference
+  // station's readings are used, not dropped, though they give no altitude of their own.
+  DropReasons drop_reasons() const {
+    DropReasons d;
+    d.add(DropReason::kNoSite, dropped_no_site);
+    d.add(DropReason::kInvalid, dropped_invalid);
+    d.add(DropReason::kLate, dropped_out_of_order);
+    d.add(DropReason::kTooManyTags, dropped_too_many_tags);
+    d.add(DropReason::kReferenceWithoutHeight, dropped_reference_without_height);
+    d.add(DropReason::kNoReference, dropped_no_reference);
+    d.add(DropReason::kStaleReference, dropped_stale_reference);
+    d.add(DropReason::kGated, rejected);
+    return d;
+  }
 };
 
 class AltitudeEstimator {
@@ -86,6 +102,7 @@ class AltitudeEstimator {
   void finish();
 
   const AltitudeStats& stats() const { return stats_; }
+  DropReasons drop_reasons() const { return stats_.drop_reasons(); }
   const AltitudeParams& params() const { return params_; }
   // The latest reference problem, e.g. "reference B1 stale: its newest reading is 12.3 s older
   // than T1's"; empty when there was none. Cleared by take_problem().

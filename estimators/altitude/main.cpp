@@ -10,6 +10,7 @@
 
 #include "core/channels.hpp"
 #include "core/cli.hpp"
+#include "core/drop_reasons.hpp"
 #include "core/device_text.hpp"
 #include "core/log_input.hpp"
 #include "core/node.hpp"
@@ -194,28 +195,13 @@ int main(int argc, char** argv) {
     const std::string out_channel = opts.channel(ips::channel::kAltitude);
     alt::AltitudeEstimator est([&](const ips::altitude_t& a) { node.publish(out_channel, a); });
     ips::provide_site(node, [&](const ips::Site& site) { est.set_site(site); });
-    int64_t reported = 0;
     node.subscribe<ips::baro_t>(
-        opts.channel(ips::channel::kBaro), [&](const ips::baro_t& m, const std::string&) {
-          est.on_baro(m);
-          const auto& s = est.stats();
-          const int64_t drops = s.dropped_invalid + s.dropped_out_of_order + s.dropped_no_site +
-                                s.dropped_too_many_tags + s.dropped_reference_without_height +
-                                s.dropped_no_reference + s.dropped_stale_reference;
-          const std::string problem = est.take_problem();
-          if (drops != reported) {
-            node.counters().drops += drops - reported;
-            reported = drops;
-            node.report_error(
-                !problem.empty()
-                    ? problem
-                    : "dropped BARO readings: " + std::to_string(s.dropped_invalid) +
-                          " invalid, " + std::to_string(s.dropped_out_of_order) +
-                          " out of order, " + std::to_string(s.dropped_no_site) +
-                          " before a site, " + std::to_string(s.dropped_too_many_tags) +
-                          " beyond max_tags");
-          }
-        });
+        opts.channel(ips::channel::kBaro),
+        [&](const ips::baro_t& m, const std::string&) { est.on_baro(m); });
+    // Readings that gave no altitude, by reason, in HEALTH once a second, with the newest
+    // problem in words ("no reference barometer heard yet: no altitude for T1").
+    ips::DropHealth drop_health;
+    node.add_timer(1.0, [&] { drop_health.report(node, est.drop_reasons(), est.take_problem()); });
     return node.run();
   });
 }

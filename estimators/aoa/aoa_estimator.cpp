@@ -153,7 +153,8 @@ void AoaEstimator::on_event(const ble_aoa_t& m) {
   size_t index = 0;
   while (index < site_->anchors.size() && site_->anchors[index].id != m.anchor_id) ++index;
   if (index == site_->anchors.size() || !usable_[index]) {
-    ++stats_.dropped_unknown_anchor;
+    const bool none = std::find(usable_.begin(), usable_.end(), true) == usable_.end();
+    ++(none ? stats_.dropped_no_anchors : stats_.dropped_unknown_anchor);
     return;
   }
   const AnchorCalibration& cal = calibration_[index];

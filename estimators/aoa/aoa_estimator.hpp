@@ -23,6 +23,7 @@
 #include <vector>
 
 #include "core/cv_filter.hpp"
+#include "core/drop_reasons.hpp"
 #include "core/pose_tally.hpp"
 #include "core/site.hpp"
 #include "estimators/aoa/aoa_calibration.hpp"
@@ -83,6 +84,7 @@ struct AoaStats {
   int64_t rejected_gate = 0;
   int64_t duplicates = 0;               // extra angles of an anchor in an epoch, not kept
   int64_t dropped_unknown_anchor = 0;   // not a ble_aoa anchor of the site, or disabled
+  int64_t dropped_no_anchors = 0;       // the site has no enabled ble_aoa anchor at all
   int64_t dropped_invalid = 0;          // NaN or |angle| > 90 deg, implausible utime, no tag id
   int64_t dropped_outside_calibration = 0;  // beyond a correction's interval with beyond: reject
   int64_t dropped_no_site = 0;
@@ -94,6 +96,23 @@ struct AoaStats {
   int64_t fixes_poor_geometry = 0;      // a fix beyond max_fix_sigma_m, not used
   int64_t initialisations = 0;
   int64_t poses_out = 0;
+
+  // The events that gave no estimate, by reason (epochs and fixes where the text says so).
+  DropReasons drop_reasons() const {
+    DropReasons d;
+    d.add(DropReason::kNoSite, dropped_no_site);
+    d.add(DropReason::kNoAnchorsOfKind, dropped_no_anchors);
+    d.add(DropReason::kUnknownAnchor, dropped_unknown_anchor);
+    d.add(DropReason::kInvalid, dropped_invalid);
+    d.add(DropReason::kOutsideCalibration, dropped_outside_calibration);
+    d.add(DropReason::kLate, dropped_late);
+    d.add(DropReason::kTooManyTags, dropped_too_many_tags);
+    d.add(DropReason::kDuplicate, duplicates);
+    d.add(DropReason::kGated, rejected_gate);
+    d.add(DropReason::kTooFewAnchors, epochs_too_few_anchors);
+    d.add(DropReason::kNoFix, solve_failures + fixes_poor_geometry);
+    return d;
+  }
 };
 
 // One advertisement's angles after calibration and the duplicate policy, for a tightly coupled
@@ -127,6 +146,7 @@ class AoaEstimator {
   void finish();
 
   const AoaStats& stats() const { return stats_; }
+  DropReasons drop_reasons() const { return stats_.drop_reasons(); }
   const AoaParams& params() const { return params_; }
   // Overrides the site's method/solver (ips-aoa --method, comparisons); kept across set_site.
   void override_method(AoaMethod method, std::optional<AoaSolver> solver = std::nullopt);

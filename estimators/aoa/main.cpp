@@ -3,6 +3,7 @@
 
 #include "core/channels.hpp"
 #include "core/cli.hpp"
+#include "core/drop_reasons.hpp"
 #include "core/node.hpp"
 #include "core/site_source.hpp"
 #include "core/time.hpp"
@@ -42,7 +43,6 @@ int main(int argc, char** argv) {
       est.override_method(solver ? ips::aoa::AoaMethod::kPerEpoch : ips::aoa::AoaMethod::kEkf,
                           solver);
     ips::provide_site(node, [&](const ips::Site& site) { est.set_site(site); });
-    int64_t reported_drops = 0, reported_gated = 0;
     // The events' own clock, carried forward by the host clock while the bus is quiet: an epoch
     // closes when its window has passed in the events' time, also for a log played back.
     ips::utime_t last_event_utime = 0, last_event_host = 0;
@@ -53,26 +53,11 @@ int main(int argc, char** argv) {
             last_event_utime = m.utime;
             last_event_host = ips::wall_utime_now();
           }
-          const auto& s = est.stats();
-          const int64_t drops = s.dropped_invalid + s.dropped_unknown_anchor + s.dropped_late +
-                                s.dropped_too_many_tags + s.dropped_outside_calibration +
-                                s.dropped_no_site;
-          // Gated angles and multipath duplicates are normal in small numbers: counted in
-          // drops without marking the process degraded.
-          const int64_t gated = s.rejected_gate + s.duplicates;
-          node.counters().drops += (drops - reported_drops) + (gated - reported_gated);
-          reported_gated = gated;
-          if (drops != reported_drops) {
-            reported_drops = drops;
-            node.report_error(
-                "dropped events: " + std::to_string(s.dropped_invalid) + " invalid, " +
-                std::to_string(s.dropped_unknown_anchor) + " unknown anchor, " +
-                std::to_string(s.dropped_no_site) + " before a site, " +
-                std::to_string(s.dropped_outside_calibration) + " outside calibration, " +
-                std::to_string(s.dropped_late) + " late, " +
-                std::to_string(s.dropped_too_many_tags) + " beyond max_tags");
-          }
         });
+    // Events that gave no pose, by reason, in HEALTH once a second; gated angles and multipath
+    // duplicates are counted in drops without marking the process degraded.
+    ips::DropHealth drop_health;
+    node.add_timer(1.0, [&] { drop_health.report(node, est.drop_reasons()); });
     node.add_timer(0.02, [&] {
       if (last_event_utime != 0)
         est.flush(last_event_utime + (ips::wall_utime_now() - last_event_host));

@@ -148,6 +148,7 @@ void InsEstimator::on_imu(const imu_t& m) {
         t.refining = true;
         ++stats_.alignments;
       }
+      if (t.phase == Phase::kAligning) ++stats_.samples_aligning;
       if (t.refining) {
         // Still at the start: the longer the still period, the better the bias and the tilt.
         align(t);
@@ -157,6 +158,7 @@ void InsEstimator::on_imu(const imu_t& m) {
       return;
     }
     if (t.phase == Phase::kAligning) {
+      ++stats_.samples_aligning;
       if (t.still_samples > 0) ++stats_.alignment_restarts;
       t.accel_sum.setZero();
       t.gyro_sum.setZero();

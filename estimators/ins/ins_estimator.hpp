@@ -20,6 +20,7 @@
 #include <optional>
 #include <string>
 
+#include "core/drop_reasons.hpp"
 #include "core/pose_tally.hpp"
 #include "core/site.hpp"
 #include "estimators/ins/stance_detector.hpp"
@@ -55,6 +56,7 @@ struct InsStats {
   int64_t dropped_no_site = 0;
   int64_t dropped_too_many_tags = 0;
   int64_t gaps = 0;  // more than max_gap_s between two samples: not integrated
+  int64_t samples_aligning = 0;  // taken before the tag's alignment is done: no pose yet
   int64_t alignments = 0;
   int64_t alignment_restarts = 0;       // the foot moved before alignment_s of stillness
   int64_t tags_without_start_pose = 0;  // started at the origin facing +x
@@ -62,6 +64,18 @@ struct InsStats {
   int64_t zupts = 0;
   int64_t zupts_failed = 0;  // numerically singular (never expected)
   int64_t poses_out = 0;
+
+  // The samples that gave no pose, by reason (HEALTH, ips-replay's summary).
+  DropReasons drop_reasons() const {
+    DropReasons d;
+    d.add(DropReason::kNoSite, dropped_no_site);
+    d.add(DropReason::kInvalid, dropped_invalid);
+    d.add(DropReason::kLate, dropped_out_of_order);
+    d.add(DropReason::kTooManyTags, dropped_too_many_tags);
+    d.add(DropReason::kGap, gaps);
+    d.add(DropReason::kInitialising, samples_aligning);
+    return d;
+  }
 };
 
 // One tag's dead-reckoning summary, for tests and reports.
@@ -88,6 +102,7 @@ class InsEstimator {
   void on_imu(const imu_t& msg);
 
   const InsStats& stats() const { return stats_; }
+  DropReasons drop_reasons() const { return stats_.drop_reasons(); }
   const InsParams& params() const { return params_; }
   std::optional<InsTrackSummary> track(const std::string& tag_id) const;
 

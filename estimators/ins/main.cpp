@@ -3,6 +3,7 @@
 
 #include "core/channels.hpp"
 #include "core/cli.hpp"
+#include "core/drop_reasons.hpp"
 #include "core/node.hpp"
 #include "core/site_source.hpp"
 #include "estimators/ins/ins_estimator.hpp"
@@ -27,23 +28,12 @@ int main(int argc, char** argv) {
     const std::string out_channel = opts.channel(ips::channel::kPoseIns);
     ips::ins::InsEstimator est([&](const ips::pose_t& p) { node.publish(out_channel, p); });
     ips::provide_site(node, [&](const ips::Site& site) { est.set_site(site); });
-    int64_t reported_drops = 0;
-    node.subscribe<ips::imu_t>(opts.channel(ips::channel::kImu), [&](const ips::imu_t& m,
-                                                                     const std::string&) {
-      est.on_imu(m);
-      const auto& s = est.stats();
-      const int64_t drops = s.dropped_invalid + s.dropped_out_of_order + s.dropped_no_site +
-                            s.dropped_too_many_tags + s.gaps;
-      if (drops != reported_drops) {
-        node.counters().drops += drops - reported_drops;
-        reported_drops = drops;
-        node.report_error("dropped samples: " + std::to_string(s.dropped_invalid) + " invalid, " +
-                          std::to_string(s.dropped_out_of_order) + " out of order, " +
-                          std::to_string(s.dropped_no_site) + " before a site, " +
-                          std::to_string(s.dropped_too_many_tags) + " beyond max_tags; " +
-                          std::to_string(s.gaps) + " gaps not integrated");
-      }
-    });
+    node.subscribe<ips::imu_t>(
+        opts.channel(ips::channel::kImu),
+        [&](const ips::imu_t& m, const std::string&) { est.on_imu(m); });
+    // Samples that gave no pose, by reason, in HEALTH (drops, last_error) once a second.
+    ips::DropHealth drop_health;
+    node.add_timer(1.0, [&] { drop_health.report(node, est.drop_reasons()); });
     return node.run();
   });
 }

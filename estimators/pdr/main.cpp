@@ -9,6 +9,7 @@
 
 #include "core/channels.hpp"
 #include "core/cli.hpp"
+#include "core/drop_reasons.hpp"
 #include "core/log_input.hpp"
 #include "core/node.hpp"
 #include "core/site_source.hpp"
@@ -120,23 +121,12 @@ int main(int argc, char** argv) {
     pdr::PdrEstimator est([&](const ips::step_t& s) { node.publish(step_channel, s); },
                           [&](const ips::pose_t& p) { node.publish(pose_channel, p); });
     ips::provide_site(node, [&](const ips::Site& site) { est.set_site(site); });
-    int64_t reported = 0;
     node.subscribe<ips::imu_t>(
-        opts.channel(ips::channel::kImu), [&](const ips::imu_t& m, const std::string&) {
-          est.on_imu(m);
-          const auto& s = est.stats();
-          const int64_t drops = s.dropped_invalid + s.dropped_time + s.dropped_no_site +
-                                s.dropped_too_many_tags;
-          if (drops != reported) {
-            node.counters().drops += drops - reported;
-            reported = drops;
-            node.report_error("dropped IMU samples: " + std::to_string(s.dropped_invalid) +
-                              " invalid, " + std::to_string(s.dropped_time) +
-                              " out of time order, " + std::to_string(s.dropped_no_site) +
-                              " before a site, " + std::to_string(s.dropped_too_many_tags) +
-                              " beyond max_tags");
-          }
-        });
+        opts.channel(ips::channel::kImu),
+        [&](const ips::imu_t& m, const std::string&) { est.on_imu(m); });
+    // Samples that went into no step, by reason, in HEALTH (drops, last_error) once a second.
+    ips::DropHealth drop_health;
+    node.add_timer(1.0, [&] { drop_health.report(node, est.drop_reasons()); });
     return node.run();
   });
 }

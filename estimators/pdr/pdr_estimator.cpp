@@ -165,9 +165,13 @@ void PdrEstimator::on_imu(const imu_t& m) {
       }
       align(t, m.device_id, false);
     }
+    if (!t.aligned) ++stats_.samples_aligning;
     return;
   }
-  if (!usable_dt) return;
+  if (!usable_dt) {
+    ++stats_.dropped_gap;
+    return;
+  }
   walk(t, m.device_id, m, dt);
 }
 

@@ -23,6 +23,7 @@
 #include <optional>
 #include <string>
 
+#include "core/drop_reasons.hpp"
 #include "core/site.hpp"
 #include "estimators/pdr/orientation_ekf.hpp"
 #include "estimators/pdr/step_detector.hpp"
@@ -62,6 +63,8 @@ struct PdrStats {
   int64_t dropped_invalid = 0;     // NaN accelerometer or gyroscope, implausible utime
   int64_t dropped_time = 0;        // not after the device's previous sample
   int64_t gaps = 0;                // samples after a gap longer than max_gap_s
+  int64_t dropped_gap = 0;         // of those, samples of an aligned track: not integrated
+  int64_t samples_aligning = 0;    // taken while the device is not aligned yet
   int64_t dropped_no_site = 0;
   int64_t dropped_too_many_tags = 0;
   int64_t alignments = 0;
@@ -71,6 +74,18 @@ struct PdrStats {
   int64_t mag_rejected = 0;        // field failed the norm or dip check
   int64_t steps = 0;
   int64_t no_start_pose = 0;       // tags started at the origin: no start_position in the site
+
+  // The samples that went into no step, by reason (HEALTH, ips-replay's summary).
+  DropReasons drop_reasons() const {
+    DropReasons d;
+    d.add(DropReason::kNoSite, dropped_no_site);
+    d.add(DropReason::kInvalid, dropped_invalid);
+    d.add(DropReason::kLate, dropped_time);
+    d.add(DropReason::kTooManyTags, dropped_too_many_tags);
+    d.add(DropReason::kGap, dropped_gap);
+    d.add(DropReason::kInitialising, samples_aligning);
+    return d;
+  }
 };
 
 class PdrEstimator {
@@ -83,6 +98,7 @@ class PdrEstimator {
   bool has_site() const { return site_.has_value(); }
   void on_imu(const imu_t& m);
   const PdrStats& stats() const { return stats_; }
+  DropReasons drop_reasons() const { return stats_.drop_reasons(); }
   const PdrParams& params() const { return params_; }
 
  private:

@@ -8,6 +8,7 @@
 
 #include "core/channels.hpp"
 #include "core/cli.hpp"
+#include "core/drop_reasons.hpp"
 #include "core/lcm_url.hpp"
 #include "core/log_input.hpp"
 #include "core/node.hpp"
@@ -125,34 +126,13 @@ int main(int argc, char** argv) {
         [&](const ips::pose_t& p) { node.publish(pose_channel, p); },
         [&](const ips::clock_t& c) { node.publish(clock_channel, c); });
     ips::provide_site(node, [&](const ips::Site& site) { est.set_site(site); });
-    int64_t reported_drops = 0, reported_gated = 0;
-    node.subscribe<ips::uwb_rx_t>(opts.channel(ips::channel::kUwbRx), [&](const ips::uwb_rx_t& m,
-                                                                          const std::string&) {
-      est.on_rx(m);
-      const auto& s = est.stats();
-      const auto& c = est.clock_stats();
-      // Reports not used: bad, unknown, late or duplicate input, syncs that could not be
-      // matched or come from another master. Named in last_error.
-      const int64_t drops = s.dropped_invalid + s.dropped_unknown_anchor + s.dropped_late +
-                            s.dropped_duplicate + s.dropped_too_many_tags + c.dropped_unmatched +
-                            c.dropped_other_master + c.dropped_late + c.dropped_duplicate;
-      // Measurements gated as outliers: normal operation in small numbers, so counted in
-      // drops without marking the process degraded.
-      const int64_t gated = s.rejected_gate + s.rejected_geometry + c.rejected_gate;
-      node.counters().drops += (drops - reported_drops) + (gated - reported_gated);
-      reported_gated = gated;
-      if (drops != reported_drops) {
-        reported_drops = drops;
-        node.report_error("dropped reports: " + std::to_string(s.dropped_invalid) + " invalid, " +
-                          std::to_string(s.dropped_unknown_anchor) + " unknown anchor, " +
-                          std::to_string(s.dropped_late + c.dropped_late) + " late, " +
-                          std::to_string(s.dropped_duplicate + c.dropped_duplicate) +
-                          " duplicate, " + std::to_string(s.dropped_too_many_tags) +
-                          " beyond max_tags, " + std::to_string(c.dropped_unmatched) +
-                          " unmatched syncs, " + std::to_string(c.dropped_other_master) +
-                          " syncs not from the master");
-      }
-    });
+    node.subscribe<ips::uwb_rx_t>(
+        opts.channel(ips::channel::kUwbRx),
+        [&](const ips::uwb_rx_t& m, const std::string&) { est.on_rx(m); });
+    // Reports that gave no pose or clock, by reason, in HEALTH once a second; outliers gated and
+    // blinks before the clocks are synchronised are counted without marking the process degraded.
+    ips::DropHealth drop_health;
+    node.add_timer(1.0, [&] { drop_health.report(node, est.drop_reasons()); });
     return node.run();
   });
 }

@@ -141,9 +141,30 @@ void TdoaEstimator::set_site(const Site& site) {
   open_order_.clear();
 }
 
+DropReasons TdoaEstimator::drop_reasons() const {
+  const ClockSyncStats& c = clocks_.stats();
+  DropReasons d;
+  d.add(DropReason::kNoSite, stats_.dropped_no_site);
+  d.add(DropReason::kNoAnchorsOfKind, stats_.dropped_no_anchors);
+  d.add(DropReason::kUnknownAnchor, stats_.dropped_unknown_anchor);
+  d.add(DropReason::kInvalid, stats_.dropped_invalid);
+  d.add(DropReason::kLate, stats_.dropped_late + c.dropped_late);
+  d.add(DropReason::kDuplicate, stats_.dropped_duplicate + c.dropped_duplicate);
+  d.add(DropReason::kTooManyTags, stats_.dropped_too_many_tags);
+  d.add(DropReason::kNoClock, stats_.rx_no_clock);
+  d.add(DropReason::kUnmatchedSync, c.dropped_unmatched + c.dropped_other_master);
+  d.add(DropReason::kTooFewAnchors, stats_.epochs_too_few);
+  d.add(DropReason::kInitialising, stats_.epochs_initialising);
+  d.add(DropReason::kGated, stats_.rejected_gate + stats_.rejected_geometry + c.rejected_gate);
+  return d;
+}
+
 void TdoaEstimator::on_rx(const uwb_rx_t& m) {
   ++stats_.rx_in;
-  if (!site_) return;
+  if (!site_) {
+    ++stats_.dropped_no_site;
+    return;
+  }
   if (!plausible_utime(m.utime) || !valid_counter(m.rx_counter) || m.anchor_id.empty() ||
       m.sender_id.empty() || !(m.counter_hz >= 1e6 && m.counter_hz <= 1e12)) {
     ++stats_.dropped_invalid;
@@ -157,7 +178,7 @@ void TdoaEstimator::on_rx(const uwb_rx_t& m) {
     return;
   }
   if (clocks_.anchor_index(m.anchor_id) < 0) {
-    ++stats_.dropped_unknown_anchor;
+    ++(clocks_.num_anchors() == 0 ? stats_.dropped_no_anchors : stats_.dropped_unknown_anchor);
     return;
   }
   close_expired(m.utime);
@@ -307,7 +328,10 @@ void TdoaEstimator::process(const std::string& tag_id, Track& t, const Blink& b)
   if (t.initialised && b.utime - t.last_accept_utime > s_to_utime(params_.max_coast_s))
     t.initialised = false;
   if (!t.initialised) {
-    if (!try_initialise(t, b, arrivals_)) return;
+    if (!try_initialise(t, b, arrivals_)) {
+      ++stats_.epochs_initialising;
+      return;
+    }
     if (t.planar)
       publish<2>(t, t.f2, tag_id, b.utime);
     else

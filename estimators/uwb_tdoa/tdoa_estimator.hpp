@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "core/cv_filter.hpp"
+#include "core/drop_reasons.hpp"
 #include "core/pose_tally.hpp"
 #include "core/site.hpp"
 #include "estimators/uwb_tdoa/clock_sync.hpp"
@@ -74,6 +75,8 @@ struct TdoaStats {
   int64_t blinks_in = 0;               // tag receptions (is_sync false)
   int64_t dropped_invalid = 0;         // bad counter or counter_hz, empty ids, implausible utime
   int64_t dropped_unknown_anchor = 0;  // not an enabled uwb_tdoa anchor of the site
+  int64_t dropped_no_anchors = 0;      // the site has no enabled uwb_tdoa anchor at all
+  int64_t dropped_no_site = 0;
   int64_t dropped_late = 0;            // behind the tag's newest report, or of a closed blink
   int64_t dropped_duplicate = 0;       // a second report of one blink from one anchor
   int64_t time_resets = 0;             // a tag's time went back by more than max_coast_s
@@ -81,6 +84,7 @@ struct TdoaStats {
   int64_t rx_no_clock = 0;             // blink at an anchor whose clock is not tracking
   int64_t epochs = 0;                  // blinks processed
   int64_t epochs_too_few = 0;          // fewer than 2 anchors with a clock
+  int64_t epochs_initialising = 0;     // blinks that could not start the tag's track yet
   int64_t tdoa_used = 0;               // range differences applied
   int64_t rejected_gate = 0;           // differences gated (Mahalanobis)
   int64_t rejected_geometry = 0;       // |difference| beyond the anchors' separation
@@ -109,6 +113,9 @@ class TdoaEstimator {
 
   const TdoaStats& stats() const { return stats_; }
   const ClockSyncStats& clock_stats() const { return clocks_.stats(); }
+  // The receptions (blinks and syncs) that gave no estimate, by reason; gated and initialising
+  // count range differences and blinks.
+  DropReasons drop_reasons() const;
   const TdoaParams& params() const { return params_; }
   const ClockSync& clocks() const { return clocks_; }
   const std::string& master_id() const { return clocks_.master_id(); }

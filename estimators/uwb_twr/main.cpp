@@ -3,6 +3,7 @@
 
 #include "core/channels.hpp"
 #include "core/cli.hpp"
+#include "core/drop_reasons.hpp"
 #include "core/lcm_url.hpp"
 #include "core/node.hpp"
 #include "core/site_source.hpp"
@@ -22,22 +23,12 @@ int main(int argc, char** argv) {
     ips::uwb_twr::TwrEstimator est(
         [&](const ips::pose_t& p) { node.publish(out_channel, p); });
     ips::provide_site(node, [&](const ips::Site& site) { est.set_site(site); });
-    int64_t reported_drops = 0;
     node.subscribe<ips::uwb_range_t>(
-        opts.channel(ips::channel::kUwbRange), [&](const ips::uwb_range_t& m, const std::string&) {
-          est.on_range(m);
-          const auto& s = est.stats();
-          const int64_t drops = s.dropped_invalid + s.dropped_unknown_anchor + s.dropped_late +
-                                s.dropped_too_many_tags;
-          if (drops != reported_drops) {
-            node.counters().drops += drops - reported_drops;
-            reported_drops = drops;
-            node.report_error("dropped ranges: " + std::to_string(s.dropped_invalid) +
-                              " invalid, " + std::to_string(s.dropped_unknown_anchor) +
-                              " unknown anchor, " + std::to_string(s.dropped_late) + " late, " +
-                              std::to_string(s.dropped_too_many_tags) + " beyond max_tags");
-          }
-        });
+        opts.channel(ips::channel::kUwbRange),
+        [&](const ips::uwb_range_t& m, const std::string&) { est.on_range(m); });
+    // Ranges that gave no pose, by reason, in HEALTH (drops, last_error) once a second.
+    ips::DropHealth drop_health;
+    node.add_timer(1.0, [&] { drop_health.report(node, est.drop_reasons()); });
     return node.run();
   });
 }

@@ -63,7 +63,10 @@ void TwrEstimator::set_site(const Site& site) {
 
 void TwrEstimator::on_range(const uwb_range_t& m) {
   ++stats_.ranges_in;
-  if (!site_) return;
+  if (!site_) {
+    ++stats_.dropped_no_site;
+    return;
+  }
   if (!plausible_utime(m.utime) || !std::isfinite(m.range_m) || m.range_m < 0 ||
       m.range_m > params_.max_range_m) {
     ++stats_.dropped_invalid;
@@ -76,7 +79,7 @@ void TwrEstimator::on_range(const uwb_range_t& m) {
   }
   const Anchor* anchor = site_->find_anchor(m.anchor_id);
   if (!anchor || !anchor->enabled || anchor->kind != "uwb") {
-    ++stats_.dropped_unknown_anchor;
+    ++(enabled_uwb_anchors_ == 0 ? stats_.dropped_no_anchors : stats_.dropped_unknown_anchor);
     return;
   }
   if (m.tag_id.empty()) {
@@ -138,7 +141,7 @@ void TwrEstimator::on_range(const uwb_range_t& m) {
   if (t.initialised && m.utime - t.last_accept_utime > s_to_utime(params_.max_coast_s))
     t.initialised = false;
   if (!t.initialised) {
-    try_initialise(t, m.utime);
+    if (!try_initialise(t, m.utime)) ++stats_.ranges_initialising;
     return;
   }
   if (t.planar) {

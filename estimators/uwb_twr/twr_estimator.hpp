@@ -21,6 +21,7 @@
 #include "core/pose_tally.hpp"
 #include "core/site.hpp"
 #include "core/cv_filter.hpp"
+#include "core/drop_reasons.hpp"
 #include "estimators/uwb_twr/models/uwb_range.hpp"
 
 namespace ips::uwb_twr {
@@ -55,14 +56,32 @@ struct TwrStats {
   int64_t rejected_gate = 0;
   int64_t downweighted = 0;            // accepted, with the variance inflated (long: NLOS?)
   int64_t dropped_unknown_anchor = 0;  // anchor not in the site or disabled
+  int64_t dropped_no_anchors = 0;      // the site has no enabled uwb anchor at all
+  int64_t dropped_no_site = 0;
   int64_t dropped_invalid = 0;         // NaN, negative or absurd range, or implausible utime
   int64_t dropped_late = 0;            // older than the tag's newest range by reorder_tolerance_s
   int64_t time_resets = 0;             // older by more than max_coast_s: track restarted
   int64_t dropped_too_many_tags = 0;   // a new tag id while max_tags tracks are active
   int64_t anchor_pair_ranges = 0;      // tag_id is an anchor of the site: survey input, not a tag
+  int64_t ranges_initialising = 0;     // taken while the tag's track is not initialised
   int64_t initialisations = 0;
   int64_t reacquisitions = 0;          // re-initialised because a fresh fix disagreed with the track
   int64_t poses_out = 0;
+
+  // The ranges that gave no estimate, by reason (HEALTH, ips-replay's summary).
+  DropReasons drop_reasons() const {
+    DropReasons d;
+    d.add(DropReason::kNoSite, dropped_no_site);
+    d.add(DropReason::kNoAnchorsOfKind, dropped_no_anchors);
+    d.add(DropReason::kUnknownAnchor, dropped_unknown_anchor);
+    d.add(DropReason::kInvalid, dropped_invalid);
+    d.add(DropReason::kLate, dropped_late);
+    d.add(DropReason::kTooManyTags, dropped_too_many_tags);
+    d.add(DropReason::kInitialising, ranges_initialising);
+    d.add(DropReason::kGated, rejected_gate);
+    d.add(DropReason::kSurveyRange, anchor_pair_ranges);
+    return d;
+  }
 };
 
 class TwrEstimator {
@@ -75,6 +94,7 @@ class TwrEstimator {
   bool has_site() const { return site_.has_value(); }
   void on_range(const uwb_range_t& msg);
   const TwrStats& stats() const { return stats_; }
+  DropReasons drop_reasons() const { return stats_.drop_reasons(); }
   const TwrParams& params() const { return params_; }
 
  private:

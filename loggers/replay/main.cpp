@@ -98,6 +98,21 @@ int main(int argc, char** argv) {
                  s.events_in, s.passed_through, s.dropped_regenerated, s.estimates_out, hosted,
                  s.undecodable, s.bad_sites, secs, static_cast<double>(s.events_in) / secs,
                  secs > 0 ? span / secs : 0.0);
+    // Per estimator: in, out, and why inputs gave nothing; an estimator that had input and gave
+    // nothing for a fault is a warning. A replay that estimated nothing at all fails (status 1)
+    // with one error line that carries the reasons.
+    const std::string why = host.nothing_estimated();
+    for (const auto& a : host.accounts()) {
+      if (a.warn && why.empty()) {
+        spdlog::warn("ips-replay: {}", a.line);
+      } else {
+        spdlog::info("ips-replay: {}", a.line);
+      }
+    }
+    if (!why.empty()) {
+      ips::print_fatal("ips-replay", why);
+      return 1;
+    }
     return 0;
   });
 }

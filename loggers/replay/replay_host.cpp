@@ -43,47 +43,74 @@ ReplayHost::ReplayHost(const ReplayOptions& opts, const CommonOptions& channels,
   auto wanted = [&](const char* name) { return opts_.only.empty() || opts_.only.count(name); };
   if (wanted(kUwbTwr)) {
     const std::string out = channels_.channel(channel::kPoseUwb);
-    twr_ = std::make_unique<uwb_twr::TwrEstimator>([this, out](const pose_t& p) { emit(out, p); });
+    twr_ = std::make_unique<uwb_twr::TwrEstimator>([this, out](const pose_t& p) {
+      ++counts_[kTwrIndex].out;
+      emit(out, p);
+    });
     produced_channels_.insert(out);
   }
   if (wanted(kUwbTdoa)) {
     const std::string pose_out = channels_.channel(channel::kPoseTdoa);
     const std::string clock_out = channels_.channel(channel::kClock);
     tdoa_ = std::make_unique<uwb_tdoa::TdoaEstimator>(
-        [this, pose_out](const pose_t& p) { emit(pose_out, p); },
-        [this, clock_out](const clock_t& c) { emit(clock_out, c); });
+        [this, pose_out](const pose_t& p) {
+          ++counts_[kTdoaIndex].out;
+          emit(pose_out, p);
+        },
+        [this, clock_out](const clock_t& c) {
+          ++counts_[kTdoaIndex].out;
+          emit(clock_out, c);
+        });
     produced_channels_.insert(pose_out);
     produced_channels_.insert(clock_out);
   }
   if (wanted(kAoa)) {
     const std::string out = channels_.channel(channel::kPoseAoa);
-    aoa_ = std::make_unique<aoa::AoaEstimator>([this, out](const pose_t& p) { emit(out, p); });
+    aoa_ = std::make_unique<aoa::AoaEstimator>([this, out](const pose_t& p) {
+      ++counts_[kAoaIndex].out;
+      emit(out, p);
+    });
     produced_channels_.insert(out);
   }
   if (wanted(kPdr)) {
     const std::string steps = channels_.channel(channel::kStep);
     const std::string poses = channels_.channel(channel::kPosePdr);
-    pdr_ = std::make_unique<pdr::PdrEstimator>([this, steps](const step_t& s) { emit(steps, s); },
-                                               [this, poses](const pose_t& p) { emit(poses, p); });
+    pdr_ = std::make_unique<pdr::PdrEstimator>(
+        [this, steps](const step_t& s) {
+          ++counts_[kPdrIndex].out;
+          emit(steps, s);
+        },
+        [this, poses](const pose_t& p) {
+          ++counts_[kPdrIndex].out;
+          emit(poses, p);
+        });
     produced_channels_.insert(steps);
     produced_channels_.insert(poses);
   }
   if (wanted(kIns)) {
     const std::string out = channels_.channel(channel::kPoseIns);
-    ins_ = std::make_unique<ins::InsEstimator>([this, out](const pose_t& p) { emit(out, p); });
+    ins_ = std::make_unique<ins::InsEstimator>([this, out](const pose_t& p) {
+      ++counts_[kInsIndex].out;
+      emit(out, p);
+    });
     produced_channels_.insert(out);
   }
   if (wanted(kAltitude)) {
     const std::string out = channels_.channel(channel::kAltitude);
     altitude_ = std::make_unique<altitude::AltitudeEstimator>(
-        [this, out](const altitude_t& a) { emit(out, a); });
+        [this, out](const altitude_t& a) {
+          ++counts_[kAltitudeIndex].out;
+          emit(out, a);
+        });
     produced_channels_.insert(out);
   }
   if (wanted(kFuse)) {
     const std::string out = channels_.channel(channel::kPoseFused);
     // Written, never fed back: the fusion does not read its own output.
-    fuse_ =
-        std::make_unique<fusion::FuseEstimator>([this, out](const pose_t& p) { write(out, p); });
+    fuse_ = std::make_unique<fusion::FuseEstimator>([this, out](const pose_t& p) {
+      ++counts_[kFuseIndex].out;
+      write(out, p);
+    });
     produced_channels_.insert(out);
   }
   if (!opts_.site_path.empty()) apply_site(load_site_file(opts_.site_path));
@@ -117,20 +144,27 @@ void ReplayHost::emit(const std::string& channel, const Msg& msg) {
 
 void ReplayHost::feed_fuse(const std::string& channel, const pose_t& m) {
   if (channel == channels_.channel(channel::kPoseIns)) {
+    ++counts_[kFuseIndex].in;
     fuse_->on_pose_ins(m);
   } else if (channel == channels_.channel(channel::kPoseTdoa)) {
+    ++counts_[kFuseIndex].in;
     fuse_->on_pose(m, "tdoa");
   } else if (channel == channels_.channel(channel::kPoseAoa)) {
+    ++counts_[kFuseIndex].in;
     fuse_->on_pose(m, "aoa");
   }
 }
 
 void ReplayHost::feed_fuse(const std::string& channel, const step_t& m) {
-  if (channel == channels_.channel(channel::kStep)) fuse_->on_step(m);
+  if (channel != channels_.channel(channel::kStep)) return;
+  ++counts_[kFuseIndex].in;
+  fuse_->on_step(m);
 }
 
 void ReplayHost::feed_fuse(const std::string& channel, const altitude_t& m) {
-  if (channel == channels_.channel(channel::kAltitude)) fuse_->on_altitude(m);
+  if (channel != channels_.channel(channel::kAltitude)) return;
+  ++counts_[kFuseIndex].in;
+  fuse_->on_altitude(m);
 }
 
 void ReplayHost::feed_fuse_from_log(const std::string& channel, const uint8_t* data, size_t size) {
@@ -147,6 +181,7 @@ void ReplayHost::feed_fuse_from_log(const std::string& channel, const uint8_t* d
       return;
     }
     if (ins_module) {
+      ++counts_[kFuseIndex].in;
       fuse_->on_ins_module(m);
     } else {
       feed_fuse(channel, m);
@@ -157,6 +192,7 @@ void ReplayHost::feed_fuse_from_log(const std::string& channel, const uint8_t* d
       ++stats_.undecodable;
       return;
     }
+    ++counts_[kFuseIndex].in;
     fuse_->on_step(m);
   } else if (channel == channels_.channel(channel::kAltitude)) {
     altitude_t m;
@@ -164,11 +200,13 @@ void ReplayHost::feed_fuse_from_log(const std::string& channel, const uint8_t* d
       ++stats_.undecodable;
       return;
     }
+    ++counts_[kFuseIndex].in;
     fuse_->on_altitude(m);
   }
 }
 
 void ReplayHost::apply_site(const Site& site) {
+  site_applied_ = true;
   if (twr_) twr_->set_site(site);
   if (tdoa_) tdoa_->set_site(site);
   if (aoa_) aoa_->set_site(site);
@@ -215,8 +253,14 @@ void ReplayHost::process(const std::string& channel, int64_t timestamp, const ui
       ++stats_.undecodable;
       return;
     }
-    if (twr_) twr_->on_range(m);
-    if (fuse_) fuse_->on_range(m);
+    if (twr_) {
+      ++counts_[kTwrIndex].in;
+      twr_->on_range(m);
+    }
+    if (fuse_) {
+      ++counts_[kFuseIndex].in;
+      fuse_->on_range(m);
+    }
   } else if ((tdoa_ || fuse_) && channel == channels_.channel(channel::kUwbRx)) {
     uwb_rx_t m;
     if (!decode_message(m, data, size)) {
@@ -224,35 +268,113 @@ void ReplayHost::process(const std::string& channel, int64_t timestamp, const ui
       return;
     }
     // ips-fuse hears a blink before the POSE_TDOA made of it, as on the bus.
-    if (fuse_) fuse_->on_rx(m);
-    if (tdoa_) tdoa_->on_rx(m);
+    if (fuse_) {
+      ++counts_[kFuseIndex].in;
+      fuse_->on_rx(m);
+    }
+    if (tdoa_) {
+      ++counts_[kTdoaIndex].in;
+      tdoa_->on_rx(m);
+    }
   } else if ((aoa_ || fuse_) && channel == channels_.channel(channel::kBleAoa)) {
     ble_aoa_t m;
     if (!decode_message(m, data, size)) {
       ++stats_.undecodable;
       return;
     }
-    if (fuse_) fuse_->on_aoa(m);
-    if (aoa_) aoa_->on_event(m);
+    if (fuse_) {
+      ++counts_[kFuseIndex].in;
+      fuse_->on_aoa(m);
+    }
+    if (aoa_) {
+      ++counts_[kAoaIndex].in;
+      aoa_->on_event(m);
+    }
   } else if ((pdr_ || ins_ || fuse_) && channel == channels_.channel(channel::kImu)) {
     imu_t m;
     if (!decode_message(m, data, size)) {
       ++stats_.undecodable;
       return;
     }
-    if (fuse_) fuse_->on_imu(m);
-    if (pdr_) pdr_->on_imu(m);
-    if (ins_) ins_->on_imu(m);
+    if (fuse_) {
+      ++counts_[kFuseIndex].in;
+      fuse_->on_imu(m);
+    }
+    if (pdr_) {
+      ++counts_[kPdrIndex].in;
+      pdr_->on_imu(m);
+    }
+    if (ins_) {
+      ++counts_[kInsIndex].in;
+      ins_->on_imu(m);
+    }
   } else if (altitude_ && channel == channels_.channel(channel::kBaro)) {
     baro_t m;
     if (!decode_message(m, data, size)) {
       ++stats_.undecodable;
       return;
     }
+    ++counts_[kAltitudeIndex].in;
     altitude_->on_baro(m);
   } else if (fuse_) {
     feed_fuse_from_log(channel, data, size);
   }
+}
+
+std::vector<EstimatorAccount> ReplayHost::accounts() const {
+  const auto ch = [this](const char* kind) { return channels_.channel(kind); };
+  std::vector<EstimatorAccount> out;
+  auto account = [&](Hosted index, const char* name, std::string inputs, DropReasons drops) {
+    EstimatorAccount a;
+    a.name = name;
+    a.inputs = std::move(inputs);
+    a.messages_in = counts_[index].in;
+    a.estimates_out = counts_[index].out;
+    a.drops = drops;
+    a.silent = a.messages_in > 0 && a.estimates_out == 0;
+    a.warn = a.silent && (drops.faults() > 0 || !opts_.only.empty());
+    a.line = a.name + ": " + std::to_string(a.messages_in) + " " + a.inputs + " in, " +
+             std::to_string(a.estimates_out) + " estimates out";
+    if (a.silent) {
+      // The dominant reasons say why; without any, the input was taken and gave nothing yet.
+      a.line += ": ";
+      a.line += drops.total() > 0 ? drops.summary(3) : "none dropped, none gave an estimate yet";
+    } else if (drops.total() > 0) {
+      a.line += "; " + drops.text();
+    }
+    if (drops.count(DropReason::kNoSite) > 0 && !site_applied_)
+      a.line += " (the log has no SITE: give --site FILE)";
+    out.push_back(std::move(a));
+  };
+  if (twr_) account(kTwrIndex, kUwbTwr, ch(channel::kUwbRange), twr_->drop_reasons());
+  if (tdoa_) account(kTdoaIndex, kUwbTdoa, ch(channel::kUwbRx), tdoa_->drop_reasons());
+  if (aoa_) account(kAoaIndex, kAoa, ch(channel::kBleAoa), aoa_->drop_reasons());
+  if (pdr_) account(kPdrIndex, kPdr, ch(channel::kImu), pdr_->drop_reasons());
+  if (ins_) account(kInsIndex, kIns, ch(channel::kImu), ins_->drop_reasons());
+  if (altitude_) account(kAltitudeIndex, kAltitude, ch(channel::kBaro), altitude_->drop_reasons());
+  if (fuse_) account(kFuseIndex, kFuse, "messages", fuse_->drop_reasons());
+  return out;
+}
+
+std::string ReplayHost::nothing_estimated() const {
+  int64_t in = 0, out = 0;
+  std::string inputs, why, fuse_why;
+  for (const auto& a : accounts()) {
+    in += a.messages_in;
+    out += a.estimates_out;
+    if (a.name == kFuse) {
+      if (a.silent) fuse_why = a.line;
+      continue;
+    }
+    inputs += (inputs.empty() ? "" : ", ") + a.name + ": " + a.inputs;
+    if (a.silent) why += (why.empty() ? "" : "; ") + a.line;
+  }
+  if (out > 0) return "";
+  if (in == 0)
+    return "the log holds no input for the hosted estimators (" +
+           (inputs.empty() ? std::string("fuse: its inputs") : inputs) + "): nothing estimated";
+  // The fusion's account repeats its sources' unless it was alone.
+  return "no hosted estimator gave an estimate: " + (why.empty() ? fuse_why : why);
 }
 
 }  // namespace ips::replay

@@ -3,6 +3,7 @@
 // order, it passes the inputs through and adds every hosted estimator's output, stamped with the
 // log time of the input that caused it. Pure: no file, clock or socket; the same events in give
 // the same bytes out.
+#include <array>
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -11,6 +12,7 @@
 #include <vector>
 
 #include "core/cli.hpp"
+#include "core/drop_reasons.hpp"
 #include "core/site.hpp"
 #include "estimators/altitude/altitude_estimator.hpp"
 #include "estimators/aoa/aoa_estimator.hpp"
@@ -37,6 +39,25 @@ struct ReplayStats {
   int64_t bad_sites = 0;
 };
 
+// One hosted estimator's account of a replay: what went in, what came out, and why inputs gave no
+// estimate.
+struct EstimatorAccount {
+  std::string name;           // "aoa"
+  std::string inputs;         // the channels it reads: "BLE_AOA"
+  int64_t messages_in = 0;    // messages handed to it
+  int64_t estimates_out = 0;  // messages it produced (POSE_*, STEP, CLOCK, ALTITUDE)
+  DropReasons drops;
+  // "aoa: 7949 BLE_AOA in, 0 estimates out: 7949 no site (the log has no SITE: give --site
+  // FILE)"; `silent` when it had input and gave nothing: then the line says why (its three
+  // largest reasons).
+  std::string line;
+  bool silent = false;
+  // Silent for a fault (no site, no anchors of its kind, invalid input, ...), or silent though
+  // asked for by name (--only): worth a warning. An estimator hosted by default that only waited
+  // (an INS that never saw a foot at rest in a hand-held phone's IMU) is not.
+  bool warn = false;
+};
+
 class ReplayHost {
  public:
   using Sink = std::function<void(const std::string& channel, int64_t timestamp,
@@ -53,6 +74,13 @@ class ReplayHost {
   void finish();
 
   const ReplayStats& stats() const { return stats_; }
+  // Per hosted estimator, in the order of available().
+  std::vector<EstimatorAccount> accounts() const;
+  // Why the replay estimated nothing, in one line: the log holds input for no hosted estimator,
+  // or none of them gave an estimate. "" when one did.
+  std::string nothing_estimated() const;
+  // A site came from --site or a SITE message of the log.
+  bool has_site() const { return site_applied_; }
   // Names of the estimators hosted, and of every estimator that can be.
   std::vector<std::string> hosted() const;
   static std::vector<std::string> available();
@@ -73,6 +101,15 @@ class ReplayHost {
   void feed_fuse_from_log(const std::string& channel, const uint8_t* data, size_t size);
   void apply_site(const Site& site);
 
+  // Messages in and estimates out per estimator, in the order of available().
+  enum Hosted { kTwrIndex, kTdoaIndex, kAoaIndex, kPdrIndex, kInsIndex, kAltitudeIndex, kFuseIndex,
+                kNumHosted };
+  struct Counts {
+    int64_t in = 0;
+    int64_t out = 0;
+  };
+  std::array<Counts, kNumHosted> counts_{};
+  bool site_applied_ = false;
   CommonOptions channels_;
   Sink sink_;
   ReplayOptions opts_;

@@ -4,6 +4,7 @@
 # reported and never crash the program.
 set -uo pipefail
 BIN=$(cd "$1" && pwd)
+ROOT=$(cd "$(dirname "$0")/../.." && pwd)
 export PYTHONPATH=$(cd "$(dirname "$0")" && pwd)  # lcm_log.py
 WORK=$(mktemp -d)
 trap 'rm -rf "$WORK"' EXIT
@@ -66,12 +67,56 @@ else
   fail "garbage in the middle: status $st, $n_out of $n_in input events, last time $last_out vs $last_in: $(cat "$WORK/err")"
 fi
 : >"$WORK/empty.lcm"
-"$BIN/ips-replay" "$WORK/empty.lcm" --out "$WORK/f.lcm" --log-level warn && echo "ok: empty log" || fail "empty log"
+# An empty log holds input for no estimator: said in one line, status 1 (nothing silent).
+"$BIN/ips-replay" "$WORK/empty.lcm" --out "$WORK/f.lcm" --log-level warn 2>"$WORK/err"; st=$?
+[ "$st" -eq 1 ] && grep -q "the log holds no input for the hosted estimators" "$WORK/err" &&
+  [ "$(wc -l <"$WORK/err")" -eq 1 ] && echo "ok: empty log: status 1, $(cat "$WORK/err")" ||
+  fail "empty log: status $st: $(cat "$WORK/err")"
 echo "not a log" >"$WORK/text.lcm"
 "$BIN/ips-replay" "$WORK/text.lcm" --out "$WORK/g.lcm" 2>"$WORK/err"; st=$?
 [ "$st" -eq 2 ] && grep -q "is not an LCM log" "$WORK/err" && echo "ok: not a log" || fail "text file: status $st"
 "$BIN/ips-replay" "$WORK/in.lcm" --out /nonexistent/dir/x.lcm 2>"$WORK/err"; st=$?
 [ "$st" -eq 2 ] && [ "$(wc -l <"$WORK/err")" -eq 1 ] && echo "ok: unwritable output" || fail "unwritable: status $st"
+
+# Nothing silent: a log without SITE gives no estimate; ips-replay says why per estimator, in the
+# error line, and exits 1; with --site the same log gives estimates again.
+"$BIN/ips-sim" --scenario aoa-hall --seed 1 --duration 10 --out "$WORK/aoa.lcm" --log-level warn
+python3 - "$WORK/aoa.lcm" "$WORK/nosite.lcm" <<'PY'
+import struct, sys, lcm_log
+evs, _, _ = lcm_log.events(sys.argv[1])
+with open(sys.argv[2], 'wb') as f:
+    for n, (ch, ts, d) in enumerate(e for e in evs if e[0] != 'SITE'):
+        c = ch.encode('latin-1')
+        f.write(struct.pack('>IqqII', lcm_log.MAGIC, n, ts, len(c), len(d)) + c + d)
+PY
+"$BIN/ips-replay" "$WORK/nosite.lcm" --only aoa --out "$WORK/ns.lcm" 2>"$WORK/err"; st=$?
+if [ "$st" -eq 1 ] &&
+  grep -Eq "^ips-replay: error: no hosted estimator gave an estimate: aoa: [0-9]+ BLE_AOA in, 0 estimates out: [0-9]+ no site \(the log has no SITE: give --site FILE\)$" "$WORK/err" &&
+  grep -Eq "info ips-replay: aoa: [0-9]+ BLE_AOA in, 0 estimates out: [0-9]+ no site" "$WORK/err"; then
+  echo "ok: no site: status 1, $(grep error "$WORK/err")"
+else
+  fail "no site: status $st: $(cat "$WORK/err")"
+fi
+# All hosted (the default): the fusion says the same; still one error line at --log-level warn.
+"$BIN/ips-replay" "$WORK/nosite.lcm" --out "$WORK/ns.lcm" --log-level warn 2>"$WORK/err"; st=$?
+[ "$st" -eq 1 ] && [ "$(wc -l <"$WORK/err")" -eq 1 ] && grep -q "aoa: .* no site" "$WORK/err" &&
+  echo "ok: no site, every estimator hosted: status 1" || fail "no site, all hosted: status $st: $(cat "$WORK/err")"
+# The lab's ranges without SITE, then with --site: estimates again, status 0, nothing on stderr.
+python3 - "$WORK/in.lcm" "$WORK/nosite-lab.lcm" <<'PY'
+import struct, sys, lcm_log
+evs, _, _ = lcm_log.events(sys.argv[1])
+with open(sys.argv[2], 'wb') as f:
+    for n, (ch, ts, d) in enumerate(e for e in evs if e[0] != 'SITE'):
+        c = ch.encode('latin-1')
+        f.write(struct.pack('>IqqII', lcm_log.MAGIC, n, ts, len(c), len(d)) + c + d)
+PY
+"$BIN/ips-replay" "$WORK/nosite-lab.lcm" --only uwb_twr --out "$WORK/ns.lcm" --log-level warn \
+  2>"$WORK/err"; st=$?
+[ "$st" -eq 1 ] && grep -q "uwb_twr: [0-9]* UWB_RANGE in, 0 estimates out: [0-9]* no site" "$WORK/err" ||
+  fail "lab without SITE: status $st: $(cat "$WORK/err")"
+"$BIN/ips-replay" "$WORK/nosite-lab.lcm" --only uwb_twr --site "$ROOT/config/sites/lab.yaml" \
+  --out "$WORK/ns.lcm" --log-level warn 2>"$WORK/err" && [ ! -s "$WORK/err" ] &&
+  echo "ok: without SITE status 1, with --site status 0" || fail "lab with --site: $(cat "$WORK/err")"
 
 # On a terminal (script(1) gives it a pseudo-terminal) a progress line that ends at 100 %; in a
 # pipe, none.

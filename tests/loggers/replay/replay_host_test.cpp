@@ -4,14 +4,20 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstdint>
+#include <functional>
 #include <ips/altitude_t.hpp>
+#include <ips/ble_aoa_t.hpp>
 #include <ips/clock_t.hpp>
+#include <ips/imu_t.hpp>
 #include <ips/pose_t.hpp>
 #include <ips/step_t.hpp>
+#include <ips/uwb_range_t.hpp>
 #include <set>
 #include <ips/site_t.hpp>
 
+#include "core/site.hpp"
 #include "drivers/sim/simulator.hpp"
 
 namespace ips::replay {
@@ -26,9 +32,11 @@ struct Out {
 
 // Replays a simulated scenario, with extra_inputs (in time order) before the simulated events of
 // the same or a later time.
+// `inspect` sees the host after finish().
 std::vector<Out> replay(const ReplayOptions& ro, double duration_s = 20,
                         const std::vector<Out>& extra_inputs = {},
-                        const std::string& scenario = "lab") {
+                        const std::string& scenario = "lab",
+                        const std::function<void(const ReplayHost&)>& inspect = {}) {
   sim::Scenario sc = sim::load_scenario(scenario);
   sc.duration_s = duration_s;
   sim::Simulator sim(sc, 1, 1767225600000000);
@@ -47,6 +55,7 @@ std::vector<Out> replay(const ReplayOptions& ro, double duration_s = 20,
   }
   process_extra_until(INT64_MAX);
   host.finish();
+  if (inspect) inspect(host);
   return out;
 }
 
@@ -360,6 +369,190 @@ TEST(ReplayHost, BadInputIsCountedAndPassedThrough) {
   EXPECT_EQ(host.stats().undecodable, 1);
   EXPECT_EQ(host.stats().bad_sites, 1);
   EXPECT_EQ(out.size(), 2u);  // nothing is lost: both go to the output log as they were
+}
+
+// --- Nothing silent: per estimator, what went in, what came out, and why inputs gave nothing. ---
+
+template <class Msg>
+Out event(const std::string& channel, int64_t t, const Msg& m) {
+  std::vector<uint8_t> b(static_cast<size_t>(m.getEncodedSize()));
+  m.encode(b.data(), 0, static_cast<int>(b.size()));
+  return {channel, t, std::move(b)};
+}
+
+constexpr int64_t kT0 = 1767225600000000;  // 2026-01-01, as the simulated logs
+
+// The lab site (four uwb anchors A1..A4 and no ble_aoa anchor) as a SITE message.
+Out lab_site_event() {
+  const Site site = load_site_file(std::string(IPS_SOURCE_DIR) + "/config/sites/lab.yaml");
+  return event("SITE", kT0, site_to_msg(site, kT0, "test"));
+}
+
+ble_aoa_t aoa_event(int64_t t, const std::string& anchor) {
+  ble_aoa_t m{};
+  m.utime = t;
+  m.source = "test";
+  m.anchor_id = anchor;
+  m.tag_id = "T1";
+  m.azimuth_deg = 10;
+  m.elevation_deg = 20;
+  m.rssi_dbm = -60;
+  m.channel = 37;
+  return m;
+}
+
+struct HostRun {
+  std::vector<EstimatorAccount> accounts;
+  std::string nothing;
+  std::vector<Out> out;
+};
+
+HostRun run_host(const ReplayOptions& ro, const std::vector<Out>& events) {
+  HostRun r;
+  ReplayHost host(ro, CommonOptions{}, [&](const std::string& ch, int64_t ts, const uint8_t* d,
+                                          size_t n) { r.out.push_back({ch, ts, {d, d + n}}); });
+  for (const auto& e : events) host.process(e.channel, e.timestamp, e.data.data(), e.data.size());
+  host.finish();
+  r.accounts = host.accounts();
+  r.nothing = host.nothing_estimated();
+  return r;
+}
+
+TEST(ReplayHostAccounts, NoSiteInTheLogIsTheReasonAndSaysWhatToDo) {
+  ReplayOptions ro;
+  ro.only = {"aoa"};
+  std::vector<Out> events;
+  for (int i = 0; i < 20; ++i) events.push_back(event("BLE_AOA", kT0 + i * 50000,
+                                                      aoa_event(kT0 + i * 50000, "B1")));
+  const HostRun r = run_host(ro, events);
+  ASSERT_EQ(r.accounts.size(), 1u);
+  const EstimatorAccount& a = r.accounts[0];
+  EXPECT_EQ(a.name, "aoa");
+  EXPECT_EQ(a.messages_in, 20);
+  EXPECT_EQ(a.estimates_out, 0);
+  EXPECT_EQ(a.drops.count(DropReason::kNoSite), 20);
+  EXPECT_EQ(a.drops.total(), 20);
+  EXPECT_TRUE(a.silent);
+  EXPECT_TRUE(a.warn);
+  EXPECT_EQ(a.line,
+            "aoa: 20 BLE_AOA in, 0 estimates out: 20 no site (the log has no SITE: give --site "
+            "FILE)");
+  EXPECT_EQ(r.nothing, "no hosted estimator gave an estimate: " + a.line);
+}
+
+TEST(ReplayHostAccounts, ASiteWithoutAoaAnchorsIsTheReason) {
+  ReplayOptions ro;
+  ro.only = {"aoa", "fuse"};
+  std::vector<Out> events{lab_site_event()};
+  // B1 is no anchor of the lab; A1 is one, of kind uwb: the site has no ble_aoa anchor at all.
+  for (int i = 0; i < 10; ++i)
+    events.push_back(event("BLE_AOA", kT0 + i * 50000, aoa_event(kT0 + i * 50000, i % 2 ? "A1" : "B1")));
+  const HostRun r = run_host(ro, events);
+  ASSERT_EQ(r.accounts.size(), 2u);
+  const EstimatorAccount& a = r.accounts[0];
+  EXPECT_EQ(a.drops.count(DropReason::kNoAnchorsOfKind), 10);
+  EXPECT_EQ(a.line, "aoa: 10 BLE_AOA in, 0 estimates out: 10 no anchors of its kind in the site");
+  EXPECT_TRUE(a.warn);
+  // The fusion groups the same angles and says the same.
+  EXPECT_EQ(r.accounts[1].name, "fuse");
+  EXPECT_EQ(r.accounts[1].messages_in, 10);
+  EXPECT_EQ(r.accounts[1].drops.count(DropReason::kNoAnchorsOfKind), 10);
+  EXPECT_EQ(r.nothing, "no hosted estimator gave an estimate: " + a.line);
+}
+
+TEST(ReplayHostAccounts, NanGyroIsInvalidForPdrAndIns) {
+  ReplayOptions ro;
+  ro.only = {"pdr", "ins"};
+  std::vector<Out> events{lab_site_event()};
+  for (int i = 0; i < 100; ++i) {
+    imu_t m{};
+    m.utime = kT0 + 10000 + i * 10000;
+    m.source = "test";
+    m.device_id = "T1";
+    m.device_utime = -1;
+    m.accel[2] = 9.81;
+    m.gyro[0] = i < 30 ? std::nan("") : 0.0;  // 30 samples with a NaN gyroscope
+    for (double& b : m.mag_ut) b = std::nan("");
+    events.push_back(event("IMU", m.utime, m));
+  }
+  const HostRun r = run_host(ro, events);
+  ASSERT_EQ(r.accounts.size(), 2u);
+  for (const auto& a : r.accounts) {
+    EXPECT_EQ(a.messages_in, 100) << a.name;
+    EXPECT_EQ(a.drops.count(DropReason::kInvalid), 30) << a.name;
+    // The other 70: a device at rest, aligning (ins needs alignment_s of stillness first).
+    EXPECT_EQ(a.drops.count(DropReason::kNoSite), 0) << a.name;
+  }
+  EXPECT_EQ(r.accounts[0].name, "pdr");
+  EXPECT_EQ(r.accounts[1].name, "ins");
+  EXPECT_NE(r.accounts[1].line.find("30 invalid"), std::string::npos) << r.accounts[1].line;
+  EXPECT_TRUE(r.accounts[1].silent);
+  EXPECT_TRUE(r.accounts[1].warn);  // invalid input is a fault
+}
+
+// Ranges far too short for where the tag is (0.3 m from an anchor 1.2 m above it) are outliers:
+// gated, counted, and named in the account of an estimator that still tracks the tag.
+TEST(ReplayHostAccounts, GatedOutliersAreCountedAndNamed) {
+  ReplayOptions ro;
+  ro.only = {"uwb_twr"};
+  std::vector<Out> outliers;
+  for (int k = 3; k <= 8; ++k) {
+    uwb_range_t m{};
+    m.utime = kT0 + k * 1000000 + 50000;
+    m.source = "test";
+    m.tag_id = "T1";
+    m.anchor_id = "A1";
+    m.range_m = 0.3;
+    m.rx_power_dbm = m.fp_power_dbm = m.quality = std::nanf("");
+    outliers.push_back(event("UWB_RANGE", m.utime, m));
+  }
+  DropReasons clean, dirty;
+  int64_t clean_out = 0;
+  replay(ro, 10, {}, "lab", [&](const ReplayHost& h) {
+    clean = h.accounts()[0].drops;
+    clean_out = h.accounts()[0].estimates_out;
+  });
+  EstimatorAccount acc;
+  replay(ro, 10, outliers, "lab", [&](const ReplayHost& h) { acc = h.accounts()[0]; });
+  dirty = acc.drops;
+  EXPECT_GE(dirty.count(DropReason::kGated), clean.count(DropReason::kGated) + 6);
+  EXPECT_GT(acc.estimates_out, clean_out / 2);
+  EXPECT_FALSE(acc.silent);
+  EXPECT_FALSE(acc.warn);
+  EXPECT_NE(acc.line.find(" gated"), std::string::npos) << acc.line;
+  EXPECT_EQ(acc.line.rfind("uwb_twr: ", 0), 0u) << acc.line;
+}
+
+TEST(ReplayHostAccounts, ALogWithNoInputForTheHostedEstimatorsSaysSo) {
+  ReplayOptions ro;
+  ro.only = {"pdr", "altitude"};
+  const HostRun r = run_host(ro, {lab_site_event()});
+  EXPECT_EQ(r.nothing,
+            "the log holds no input for the hosted estimators (pdr: IMU, altitude: BARO): nothing "
+            "estimated");
+  ASSERT_EQ(r.accounts.size(), 2u);
+  EXPECT_EQ(r.accounts[0].line, "pdr: 0 IMU in, 0 estimates out");
+  EXPECT_FALSE(r.accounts[0].silent);
+}
+
+// The simulated lab: every estimator with input says what came of it; nothing is missing.
+TEST(ReplayHostAccounts, TheLabAccountsForEveryHostedEstimator) {
+  std::vector<EstimatorAccount> acc;
+  std::string nothing = "?";
+  replay({}, 20, {}, "lab", [&](const ReplayHost& h) {
+    acc = h.accounts();
+    nothing = h.nothing_estimated();
+  });
+  EXPECT_EQ(nothing, "");
+  ASSERT_EQ(acc.size(), ReplayHost::available().size());
+  int64_t out = 0;
+  for (const auto& a : acc) {
+    EXPECT_EQ(a.line.rfind(a.name + ": " + std::to_string(a.messages_in) + " ", 0), 0u) << a.line;
+    EXPECT_EQ(a.drops.count(DropReason::kNoSite), 0) << a.name;
+    out += a.estimates_out;
+  }
+  EXPECT_GT(acc[0].estimates_out, 100);  // uwb_twr
+  EXPECT_GT(out, acc[0].estimates_out);
 }
 
 }  // namespace
