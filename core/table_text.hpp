@@ -81,8 +81,8 @@ std::optional<TimeUnit> guess_epoch_unit(double value);
 // An ISO-8601 date-time, "2024-12-18T05:58:05.123Z", "2024-12-18 05:58:05", "...+09:00" (UTC
 // when no offset is given) -> us since the Unix epoch.
 bool parse_iso8601_us(std::string_view field, int64_t& us);
-// A time field: an ISO-8601 date-time, or a number in `unit` (integers exactly, fractions
-// rounded to the us) -> us. False when neither, or beyond +-4e18 us.
+// A time field: an ISO-8601 date-time, or a number in `unit` (integers exactly, integer ns
+// truncated to the us, fractions rounded to the us) -> us. False when neither, or beyond +-4e18 us.
 bool parse_time_us(std::string_view field, TimeUnit unit, int64_t& us);
 
 // Where the rows of a file are in time. Built from --time-unit, --file-start, --rate:
