@@ -92,7 +92,7 @@ grep -qx 'User=ips' "$WORK/example-recorder/ips-lab-record.service" || fail "exa
 # --- 3: run --------------------------------------------------------------------------------
 start=$(date +%s.%N)
 "$D" run "$WORK/d.yaml" --host pc >"$WORK/run.out" 2>"$WORK/run.err" & deploy=$!
-for _ in $(seq 100); do
+for _ in $(seq 600); do  # at most 60 s
   [ "$(grep -c '^\[flaky\] hello from' "$WORK/run.out" || true)" -ge 4 ] && break
   sleep 0.1
 done
@@ -115,8 +115,10 @@ grep -q '^\[ips-deploy\] twr stopped (status 0)$' "$WORK/run.out" || fail "twr d
 # Started after flaky (after: [flaky]) and stopped before it.
 awk '/started flaky/ && !f { f = NR } /started stubborn/ && !s { s = NR } END { exit !(f && s && f < s) }' \
   "$WORK/run.out" || fail "stubborn started before flaky"
-# 4 flaky runs take 0.6 s + 0.2 + 0.4 + 0.8 s of back-off; the stop 0.5 s more (stubborn).
-awk -v t="$elapsed" 'BEGIN { exit !(t >= 2.0 && t < 5) }' || fail "run took $elapsed s"
+# 4 flaky runs take 0.6 s + 0.2 + 0.4 + 0.8 s of back-off; the stop 0.5 s more (stubborn). The
+# delays themselves are checked in the messages above; the upper bound only catches a hang (a
+# loaded machine can take several seconds more).
+awk -v t="$elapsed" 'BEGIN { exit !(t >= 2.0 && t < 30) }' || fail "run took $elapsed s"
 echo "run: restarts at 0.2, 0.4, 0.8 s, SIGKILL after the stop timeout, status 0 ($elapsed s)"
 
 # --- 4: run ends when everything has ended ---------------------------------------------------
@@ -129,12 +131,12 @@ hosts:
       - {name: one, command: /bin/true, restart: on-failure}
       - {name: two, command: /bin/sh, args: [-c, "exit 0"], restart: "no"}
 EOF
-timeout 20 "$D" run "$WORK/once.yaml" --host pc >"$WORK/once.out" 2>&1 || fail "run once: $(cat "$WORK/once.out")"
+timeout 60 "$D" run "$WORK/once.yaml" --host pc >"$WORK/once.out" 2>&1 || fail "run once: $(cat "$WORK/once.out")"
 grep -q 'every process has ended' "$WORK/once.out" || fail "run once: $(cat "$WORK/once.out")"
 sed 's|command: /bin/true, restart: on-failure|command: /bin/false, restart: "no"|' "$WORK/once.yaml" >"$WORK/fails.yaml"
 run_to_end() {  # run_to_end NAME: ips-deploy run $WORK/NAME.yaml to its end; its status in rc
   set +e
-  timeout 20 "$D" run "$WORK/$1.yaml" --host pc >"$WORK/$1.out" 2>&1
+  timeout 60 "$D" run "$WORK/$1.yaml" --host pc >"$WORK/$1.out" 2>&1
   rc=$?
   set -e
 }
@@ -174,20 +176,38 @@ running() {  # running PID...: true while one of them is alive and not a zombie
   done
   return 1
 }
+# twr_ready PID...: the one running ips-uwb-twr has blocked SIGINT for its signalfd (its node is
+# set up: a SIGINT now stops it cleanly).
+twr_ready() {
+  local p
+  for p in "$@"; do
+    [ "$(cat "/proc/$p/comm" 2>/dev/null)" = ips-uwb-twr ] || continue
+    local blk
+    blk=$(awk '/^SigBlk:/ { print $2 }' "/proc/$p/status" 2>/dev/null)
+    [ -n "$blk" ] && (( (16#$blk >> 1) & 1 )) && return 0
+  done
+  return 1
+}
 for how in HUP KILL; do
   out="$WORK/left-$how.out"
   "$D" run "$WORK/left.yaml" --host pc --bin-dir "$BIN" >"$out" 2>&1 & deploy=$!
-  for _ in $(seq 100); do
+  for _ in $(seq 600); do  # at most 60 s
     [ "$(started_pids "$out" | wc -l)" -eq 2 ] && break
     sleep 0.1
   done
   kids=$(started_pids "$out" | tr '\n' ' ')
   [ "$(echo $kids | wc -w)" -eq 2 ] || fail "SIG$how: not started: $(cat "$out")"
-  sleep 0.3
+  for _ in $(seq 600); do
+    # shellcheck disable=SC2086
+    twr_ready $kids && break
+    sleep 0.1
+  done
+  # shellcheck disable=SC2086
+  twr_ready $kids || fail "SIG$how: ips-uwb-twr did not set up within 60 s: $(cat "$out")"
   kill -"$how" "$deploy"
   rc=0
   wait "$deploy" || rc=$?
-  for _ in $(seq 50); do
+  for _ in $(seq 600); do  # at most 60 s
     running $kids || break
     sleep 0.1
   done

@@ -114,7 +114,8 @@ print(next((str(p[sys.argv[2]]) for p in r["processes"] if p["program"] == sys.a
 }
 # Up: each sends HEALTH (the trackers say "starting" until the simulator's SITE comes).
 up() { [ "$(echo "$1" | field "$2" pid)" -gt 0 ] 2>/dev/null; }
-for _ in $(seq 20); do
+# Each status listens 2 s: at most 60 s.
+for _ in $(seq 30); do
   s=$(status_json)
   up "$s" ips-uwb-twr && up "$s" ips-fuse && up "$s" ips-record && break
 done
@@ -123,7 +124,13 @@ up "$s" ips-uwb-twr && up "$s" ips-fuse && up "$s" ips-record ||
 
 start_on a "$BIN/ips-deploy" run "$WORK/lab.yaml" --host sensors >"$WORK/a.out" 2>&1 & deploy_a=$!
 pids+=($deploy_a)
-sleep 8
+# Until the simulator is up and the tracker has its SITE (no longer "starting"): at most 60 s.
+sim_on() { up "$1" ips-sim && [[ "$(echo "$1" | field ips-uwb-twr state)" =~ ^(ok|degraded)$ ]]; }
+for _ in $(seq 30); do
+  s=$(status_json)
+  sim_on "$s" && break
+done
+sim_on "$s" || fail "the simulator did not start, or ips-uwb-twr got no SITE: $s"
 
 # Every process on its machine, as host-c sees it.
 on c "$BIN/ips-deploy" status "$WORK/lab.yaml" --wait 2 >"$WORK/status.txt" ||
@@ -150,7 +157,7 @@ old=$(echo "$s" | field ips-uwb-twr pid)
 kill -KILL "$old"
 killed_at=$(date +%s%6N)
 new=
-for _ in $(seq 15); do
+for _ in $(seq 30); do
   s=$(status_json)
   new=$(echo "$s" | field ips-uwb-twr pid)
   [ -n "$new" ] && [ "$new" != "$old" ] && [ "$(echo "$s" | field ips-uwb-twr state)" = ok ] && break
@@ -162,7 +169,12 @@ echo "ips-uwb-twr pid $old killed, restarted as pid $new"
 
 # The simulation (40 s) ends; sensors' ips-deploy then has nothing left to run.
 wait "$deploy_a" || fail "host-a's ips-deploy exited with status $?: $(cat "$WORK/a.out")"
-sleep 1
+# Until the recording holds the trackers' estimates up to the end of the simulation (or each
+# has handled its last input: HEALTH's msgs_in unchanged between two reports).
+for pair in POSE_UWB:ips-uwb-twr POSE_FUSED:ips-fuse; do
+  python3 "$ROOT/tests/integration/log_wait.py" "$WORK/host-c.lcm" --reach "${pair%%:*}" \
+    --end-after-site 40 --or-idle "${pair#*:}" --pid "${pids[0]}"
+done
 for p in "${pids[@]}"; do kill -INT "$p" 2>/dev/null || true; done
 for p in "${pids[@]}"; do wait "$p" 2>/dev/null || true; done
 pids=()

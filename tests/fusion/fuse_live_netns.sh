@@ -17,13 +17,15 @@ ROOT=$(cd "$HERE/../.." && pwd)
 source "$ROOT/tests/integration/live_test_lib.sh"
 source "$ROOT/tests/integration/cli_test_lib.sh"
 
-"$BIN/ips-bus-check" --timeout 3 || fail "multicast does not loop back inside the namespace"
+"$BIN/ips-bus-check" --timeout 30 || fail "multicast does not loop back inside the namespace"
 lcm-logger -q -f "$WORK/fuse.lcm" & logger=$!; pids+=($logger)
 "$BIN/ips-fuse" --log-level warn & fuse=$!; pids+=($fuse)
-"$BIN/ips-bus-check" --wait-for ips-fuse --timeout 20 || fail "ips-fuse did not come up"
-sleep 0.2
+"$BIN/ips-bus-check" --wait-for ips-fuse --timeout 60 || fail "ips-fuse did not come up"
+logger_sync "$WORK/fuse.lcm"
 "$BIN/ips-sim" --scenario corridor-L-2 --seed 1 --speed 10 --log-level warn
-sleep 0.5
+# Until ips-fuse has caught up with the 40 s the simulator published.
+python3 "$ROOT/tests/integration/log_wait.py" "$WORK/fuse.lcm" --reach POSE_FUSED \
+  --end-after-site 40 --pid $fuse --or-idle ips-fuse
 stop $fuse ips-fuse
 stop $logger lcm-logger
 
@@ -52,7 +54,7 @@ PY
 
 "$BIN/ips-fuse-latency" --print-site --tags 3 > "$WORK/latency.yaml"
 "$BIN/ips-fuse" --site "$WORK/latency.yaml" --log-level warn & fuse=$!; pids+=($fuse)
-"$BIN/ips-bus-check" --wait-for ips-fuse --timeout 20 > /dev/null || fail "ips-fuse did not come up"
+"$BIN/ips-bus-check" --wait-for ips-fuse --timeout 60 > /dev/null || fail "ips-fuse did not come up"
 out=$("$BIN/ips-fuse-latency" --tags 3 --seconds 2 --warmup 1 --cpu-pid $fuse) ||
   fail "ips-fuse-latency: $out"
 stop $fuse ips-fuse

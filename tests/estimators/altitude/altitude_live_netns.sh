@@ -18,7 +18,7 @@ ROOT=$(cd "$HERE/../../.." && pwd)
 source "$ROOT/tests/integration/live_test_lib.sh"
 source "$ROOT/tests/integration/cli_test_lib.sh"
 
-"$BIN/ips-bus-check" --timeout 3 || fail "multicast does not loop back inside the namespace"
+"$BIN/ips-bus-check" --timeout 30 || fail "multicast does not loop back inside the namespace"
 
 # --- 1. calibration --------------------------------------------------------------------------
 "$BIN/ips-sim" --scenario baro-calibration --seed 1 --out "$WORK/cal.lcm" --log-level warn
@@ -43,10 +43,12 @@ sed -e '/^  uwb_tdoa:$/,$d' -e 's/^    rate_hz: 50$/    rate_hz: 10/' \
 grep -q 'uwb_tdoa:' "$WORK/steps.yaml" && fail "could not take UWB out of baro-steps"
 lcm-logger -q -f "$WORK/live.lcm" & logger=$!; pids+=($logger)
 "$BIN/ips-altitude" --site "$WORK/site.yaml" --log-level warn & alt=$!; pids+=($alt)
-"$BIN/ips-bus-check" --wait-for ips-altitude --timeout 20 || fail "ips-altitude did not come up"
-sleep 0.2
+"$BIN/ips-bus-check" --wait-for ips-altitude --timeout 60 || fail "ips-altitude did not come up"
+logger_sync "$WORK/live.lcm"
 "$BIN/ips-sim" --scenario "$WORK/steps.yaml" --seed 1 --duration 200 --speed 20 --log-level warn
-sleep 0.5
+# Until ips-altitude has caught up with the 200 s the simulator published.
+python3 "$ROOT/tests/integration/log_wait.py" "$WORK/live.lcm" --reach ALTITUDE \
+  --end-after-site 200 --pid $alt --or-idle ips-altitude
 stop $alt ips-altitude
 stop $logger lcm-logger
 
@@ -102,9 +104,13 @@ sed -e 's/^    warmup_tau_s: 60$/    warmup_tau_s: 60\n    on_stations: false/' 
 grep -q 'on_stations: false' "$WORK/noref.yaml" || fail "could not make the no-reference scenario"
 lcm-logger -q -f "$WORK/noref.lcm" & logger=$!; pids+=($logger)
 "$BIN/ips-altitude" --log-level error & alt=$!; pids+=($alt)
-"$BIN/ips-bus-check" --wait-for ips-altitude --timeout 20 || fail "ips-altitude did not come up"
+"$BIN/ips-bus-check" --wait-for ips-altitude --timeout 60 || fail "ips-altitude did not come up"
+logger_sync "$WORK/noref.lcm"
 "$BIN/ips-sim" --scenario "$WORK/noref.yaml" --duration 3 --speed 1 --log-level warn
-sleep 1.2
+# No ALTITUDE comes: until ips-altitude's HEALTH shows it has handled every reading (msgs_in
+# unchanged between two reports), which is the report checked below.
+python3 "$ROOT/tests/integration/log_wait.py" "$WORK/noref.lcm" --reach ALTITUDE \
+  --end-after-site 3 --pid $alt --or-idle ips-altitude
 stop $alt ips-altitude
 stop $logger lcm-logger
 python3 - "$WORK/noref.lcm" <<'PY' || fail "HEALTH does not report the missing reference"
