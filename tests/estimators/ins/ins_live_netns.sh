@@ -16,7 +16,7 @@ source "$ROOT/tests/integration/live_test_lib.sh"
 
 SPEED=10
 
-"$BIN/ips-bus-check" --timeout 3 || fail "multicast does not loop back inside the namespace"
+"$BIN/ips-bus-check" --timeout 30 || fail "multicast does not loop back inside the namespace"
 
 # row_of JSON CHANNEL -> "count rmse"
 row_of() {
@@ -28,10 +28,12 @@ row_of() {
 
 lcm-logger -q -f "$WORK/ins.lcm" & logger=$!; pids+=($logger)
 "$BIN/ips-ins" --log-level warn & ins=$!; pids+=($ins)
-"$BIN/ips-bus-check" --wait-for ips-ins --timeout 20 || fail "ips-ins did not come up"
-sleep 0.2
+"$BIN/ips-bus-check" --wait-for ips-ins --timeout 60 || fail "ips-ins did not come up"
+logger_sync "$WORK/ins.lcm"
 "$BIN/ips-sim" --scenario walk-square-foot --seed 1 --speed $SPEED --log-level warn
-sleep 0.5
+# Until ips-ins has caught up with the 174 s the simulator published.
+python3 "$ROOT/tests/integration/log_wait.py" "$WORK/ins.lcm" --reach POSE_INS \
+  --end-after-site 174 --pid $ins --or-idle ips-ins
 stop $ins ips-ins
 stop $logger lcm-logger
 

@@ -12,13 +12,17 @@ HERE=$(cd "$(dirname "$0")" && pwd)
 ROOT=$(cd "$HERE/../../.." && pwd)
 source "$ROOT/tests/integration/live_test_lib.sh"
 
-"$BIN/ips-bus-check" --timeout 3 || fail "multicast does not loop back inside the namespace"
+"$BIN/ips-bus-check" --timeout 30 || fail "multicast does not loop back inside the namespace"
 lcm-logger -q -f "$WORK/live.lcm" & logger=$!; pids+=($logger)
 "$BIN/ips-pdr" --log-level warn & pdr=$!; pids+=($pdr)
-"$BIN/ips-bus-check" --wait-for ips-pdr --timeout 20 || fail "ips-pdr did not come up"
-sleep 0.2
+"$BIN/ips-bus-check" --wait-for ips-pdr --timeout 60 || fail "ips-pdr did not come up"
+logger_sync "$WORK/live.lcm"
 "$BIN/ips-sim" --scenario walk-square --seed 1 --speed 10 --log-level warn
-sleep 0.5
+# Until ips-pdr has caught up: the walk's last step is at 163.6 s of the 174 (the one before at
+# 163.1 s), so its pose is the one within 10.6 s of the end; or, if the bus lost IMU samples and
+# with them that step, until ips-pdr is idle (HEALTH).
+python3 "$ROOT/tests/integration/log_wait.py" "$WORK/live.lcm" --reach POSE_PDR \
+  --end-after-site 174 --slack 10.6 --pid $pdr --or-idle ips-pdr
 stop $pdr ips-pdr
 stop $logger lcm-logger
 
