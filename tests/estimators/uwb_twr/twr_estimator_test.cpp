@@ -46,7 +46,8 @@ TEST(TwrEstimatorLab, Seed1SixtySecondsMeetsAccuracyBound) {
   EXPECT_GT(r.row.count, 550u);  // ~10 Hz for 60 s
   EXPECT_LE(r.row.rmse_h, 0.12);
   EXPECT_LE(r.row.p95_h, 0.30);
-  EXPECT_NEAR(r.row.rmse_v, 0.0, 1e-9);  // 2D: height from the site file, which is the truth
+  // 2D (STATUS_2D) at the site's tag height: ips-eval scores no vertical error for it.
+  EXPECT_TRUE(std::isnan(r.row.rmse_v)) << r.row.rmse_v;
 }
 
 TEST(TwrEstimatorLab, AccuracyHoldsOverSeveralSeeds) {
