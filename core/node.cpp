@@ -87,15 +87,20 @@ void Node::subscribe_raw(const std::string& channel, RawHandler handler) {
       report_error("channel " + chan + ": handler failed: " + e.what());
     }
   });
-  if (!lcm_->subscribeFunction(
-          channel,
-          +[](const lcm::ReceiveBuffer* rbuf, const std::string& chan, RawHandler* h) {
-            (*h)(rbuf, chan);
-          },
-          &handlers_.back())) {
+  lcm::Subscription* sub = lcm_->subscribeFunction(
+      channel,
+      +[](const lcm::ReceiveBuffer* rbuf, const std::string& chan, RawHandler* h) {
+        (*h)(rbuf, chan);
+      },
+      &handlers_.back());
+  if (!sub) {
     handlers_.pop_back();
     throw LcmOpenError("cannot subscribe to channel '" + channel + "'");
   }
+  // liblcm keeps 30 messages per subscription by default and drops the rest without a word when
+  // the process falls behind (a loaded machine, a burst): replayed captures lost up to 14 % of
+  // their ranges that way. kSubscriptionQueueMessages holds several seconds of a busy lab.
+  sub->setQueueCapacity(kSubscriptionQueueMessages);
 }
 
 void Node::add_timer(double period_s, std::function<void()> fn) {

@@ -43,6 +43,10 @@ bool decode_message(Msg& msg, const void* data, size_t size) {
   }
 }
 
+// Messages liblcm may hold for one subscription while the process is busy (its default, 30, is
+// a fraction of a second of a lab's traffic).
+inline constexpr int kSubscriptionQueueMessages = 20000;
+
 class Node {
  public:
   // Opens LCM from opts.lcm_url; throws LcmOpenError (one clear line) when it cannot.
