@@ -7,6 +7,7 @@
 
 #include "core/device_text.hpp"
 #include "core/time.hpp"
+#include "drivers/import/row_loop.hpp"
 
 namespace ips::import {
 
@@ -79,95 +80,60 @@ Eigen::Vector3d FrameTransform::apply(const Eigen::Vector3d& p) const {
 
 PoseFile read_poses(std::string_view text, const std::string& name, const PoseOptions& options) {
   PoseFile out;
-  const auto& known = pose_columns();
-  table::TableReader reader(options.read);
-  table::Columns columns;
-  RowTimes times(options.time);
-  bool failed = false, quaternion = false, heading = false, heading_deg = false;
-
-  for_each_line(text, [&](std::string_view line) {
-    if (failed) return;
-    const auto kind = reader.feed(line);
-    out.tally.note(reader, kind, line);
-    if (kind != table::TableReader::Kind::kData) return;
-
-    if (reader.first_data()) {
-      if (!options.columns.empty()) {
-        const std::string why = columns.set_from_list(options.columns, known);
-        if (!why.empty()) {
-          out.error = name + ": --columns: " + why;
-          failed = true;
-          return;
-        }
-      } else if (reader.header().empty() ||
-                 columns.set_from_header(reader.header_views(), known) == 0 || !columns.has("x")) {
-        // The default layout; z only when the first row has the field for it.
-        const bool rate = options.time.rate_hz > 0;
-        const bool z = reader.fields().size() >= (rate ? 3u : 4u);
-        columns.set_from_list(rate ? (z ? "x,y,z" : "x,y") : (z ? "t,x,y,z" : "t,x,y"), known);
-      }
-      std::string missing;
-      if (!columns.has("x")) missing = "x";
-      else if (!columns.has("y")) missing = "y";
-      else if (!columns.has("t") && options.time.rate_hz <= 0) missing = "t";
-      if (!missing.empty()) {
-        out.error = name + ": no " + missing + " column (columns " + columns.describe() +
-                    "); name them with --columns t,x,y[,z][,qw,qx,qy,qz|heading][,tag]" +
-                    (missing == "t" ? " or give --rate HZ" : "");
-        failed = true;
-        return;
-      }
-      quaternion = columns.has("qw") && columns.has("qx") && columns.has("qy") && columns.has("qz");
-      heading = columns.has("heading");
-      if (!options.lever_arms.empty() && !quaternion && !heading) {
-        out.error = name + ": --lever-arm needs the body's orientation: a quaternion (qw,qx,qy,qz) "
-                           "or a heading column (columns " + columns.describe() + ")";
-        failed = true;
-        return;
-      }
-      if (options.lever_arms.empty() && !columns.has("tag") && options.tag.empty()) {
-        out.error = name + ": no tag column: give --tag T (or --lever-arm TAG=x,y,z)";
-        failed = true;
-        return;
-      }
-      heading_deg = options.heading_unit == HeadingUnit::kDeg;
-      if (options.heading_unit == HeadingUnit::kAuto && heading) {
-        const int i = columns.index("heading");
-        heading_deg = static_cast<size_t>(i) < reader.header().size() &&
-                      contains_deg(reader.header()[static_cast<size_t>(i)]);
-      }
-      out.planar = !columns.has("z");
-      out.columns = columns.describe();
+  bool quaternion = false, heading = false, heading_deg = false;
+  const RowLoopSpec spec{name,           options.read, options.time, options.columns,
+                         pose_columns(), "x",          "t,x,y,z",    "no position"};
+  auto default_list = [&](const table::TableReader& reader) {
+    // The default layout; z only when the first row has the field for it.
+    const bool rate = options.time.rate_hz > 0;
+    const bool z = reader.fields().size() >= (rate ? 3u : 4u);
+    return rate ? (z ? "x,y,z" : "x,y") : (z ? "t,x,y,z" : "t,x,y");
+  };
+  auto check = [&](const table::TableReader& reader, const table::Columns& columns) -> std::string {
+    std::string missing;
+    if (!columns.has("x")) missing = "x";
+    else if (!columns.has("y")) missing = "y";
+    else if (!columns.has("t") && options.time.rate_hz <= 0) missing = "t";
+    if (!missing.empty())
+      return "no " + missing + " column (columns " + columns.describe() +
+             "); name them with --columns t,x,y[,z][,qw,qx,qy,qz|heading][,tag]" +
+             (missing == "t" ? " or give --rate HZ" : "");
+    quaternion = columns.has("qw") && columns.has("qx") && columns.has("qy") && columns.has("qz");
+    heading = columns.has("heading");
+    if (!options.lever_arms.empty() && !quaternion && !heading)
+      return "--lever-arm needs the body's orientation: a quaternion (qw,qx,qy,qz) "
+             "or a heading column (columns " +
+             columns.describe() + ")";
+    if (options.lever_arms.empty() && !columns.has("tag") && options.tag.empty())
+      return "no tag column: give --tag T (or --lever-arm TAG=x,y,z)";
+    heading_deg = options.heading_unit == HeadingUnit::kDeg;
+    if (options.heading_unit == HeadingUnit::kAuto && heading) {
+      const int i = columns.index("heading");
+      heading_deg = static_cast<size_t>(i) < reader.header().size() &&
+                    contains_deg(reader.header()[static_cast<size_t>(i)]);
     }
-
-    const auto& f = reader.fields();
-    if (static_cast<int>(f.size()) < columns.needed()) {
-      out.tally.reject(reader.line_number(), line,
-                       std::to_string(f.size()) + " fields, expected at least " +
-                           std::to_string(columns.needed()) + " (" + columns.describe() + ")");
-      return;
-    }
-    auto field = [&](const char* col) -> std::string_view {
-      const int i = columns.index(col);
-      return i < 0 ? std::string_view() : f[static_cast<size_t>(i)];
-    };
+    out.planar = !columns.has("z");
+    return "";
+  };
+  read_rows(text, spec, out, default_list, check, [&](const Row& row) {
     Eigen::Vector3d p(0, 0, options.z);
-    if (!table::parse_number(field("x"), p.x()) || !table::parse_number(field("y"), p.y())) {
-      out.tally.reject(reader.line_number(), line, "x or y is not a number");
-      return;
+    if (!table::parse_number(row.field("x"), p.x()) ||
+        !table::parse_number(row.field("y"), p.y())) {
+      row.reject("x or y is not a number");
+      return false;
     }
     p.x() = options.unit.to_si(p.x());
     p.y() = options.unit.to_si(p.y());
-    if (columns.has("z")) {
-      if (!table::parse_number(field("z"), p.z())) {
-        out.tally.reject(reader.line_number(), line, "z is not a number");
-        return;
+    if (row.has("z")) {
+      if (!table::parse_number(row.field("z"), p.z())) {
+        row.reject("z is not a number");
+        return false;
       }
       p.z() = options.unit.to_si(p.z());
     }
     if (!p.allFinite() || p.cwiseAbs().maxCoeff() > 1e7) {
-      out.tally.reject(reader.line_number(), line, "position out of range");
-      return;
+      row.reject("position out of range");
+      return false;
     }
     // The body's rotation (file frame), when known.
     Eigen::Matrix3d r = Eigen::Matrix3d::Identity();
@@ -176,42 +142,34 @@ PoseFile read_poses(std::string_view text, const std::string& name, const PoseOp
       double q[4];
       const char* names[4] = {"qw", "qx", "qy", "qz"};
       for (int k = 0; k < 4; ++k)
-        if (!table::parse_number(field(names[k]), q[k])) {
-          out.tally.reject(reader.line_number(), line, "quaternion component is not a number");
-          return;
+        if (!table::parse_number(row.field(names[k]), q[k])) {
+          row.reject("quaternion component is not a number");
+          return false;
         }
       Eigen::Quaterniond quat(q[0], q[1], q[2], q[3]);
       const double n = quat.norm();
       if (!(n > 0.5 && n < 1.5)) {
-        out.tally.reject(reader.line_number(), line, "quaternion is not a rotation (norm far from 1)");
-        return;
+        row.reject("quaternion is not a rotation (norm far from 1)");
+        return false;
       }
       r = quat.normalized().toRotationMatrix();
       oriented = true;
-    } else if (heading && !missing_field(field("heading"))) {
+    } else if (heading && !missing_field(row.field("heading"))) {
       double h = 0;
-      if (!table::parse_number(field("heading"), h) || std::fabs(h) > 1e6) {
-        out.tally.reject(reader.line_number(), line, "heading is not a number");
-        return;
+      if (!table::parse_number(row.field("heading"), h) || std::fabs(h) > 1e6) {
+        row.reject("heading is not a number");
+        return false;
       }
       if (heading_deg) h *= M_PI / 180.0;
       r = Eigen::AngleAxisd(h, Eigen::Vector3d::UnitZ()).toRotationMatrix();
       oriented = true;
     }
     if (!options.lever_arms.empty() && !oriented) {
-      out.tally.reject(reader.line_number(), line, "no orientation for the lever arms");
-      return;
+      row.reject("no orientation for the lever arms");
+      return false;
     }
-    std::string reason;
-    const auto t = times.next(field("t"), reason);
-    if (!t) {
-      out.tally.reject(reader.line_number(), line, reason);
-      return;
-    }
-    if (!plausible_utime(*t)) {
-      out.tally.reject(reader.line_number(), line, "time not after 1970 or beyond 2096");
-      return;
-    }
+    const auto t = row.time();
+    if (!t) return false;
     const double yaw = std::atan2(r(1, 0), r(0, 0));
     auto emit = [&](const std::string& tag, const Eigen::Vector3d& body_point) {
       pose_t m = base_pose(options);
@@ -228,30 +186,15 @@ PoseFile read_poses(std::string_view text, const std::string& name, const PoseOp
     if (!options.lever_arms.empty()) {
       for (const LeverArm& arm : options.lever_arms) emit(arm.tag, p + r * arm.body);
     } else {
-      const std::string tag = columns.has("tag") ? std::string(field("tag")) : options.tag;
+      const std::string tag = row.has("tag") ? std::string(row.field("tag")) : options.tag;
       if (!valid_device_id(tag)) {
-        out.tally.reject(reader.line_number(), line,
-                         "tag " + quoted_field(tag) + " is not 1 to 32 of A-Za-z0-9_.:-");
-        return;
+        row.reject("tag " + quoted_field(tag) + " is not 1 to 32 of A-Za-z0-9_.:-");
+        return false;
       }
       emit(tag, p);
     }
-    ++out.tally.rows;
+    return true;
   });
-
-  out.time_unit = times.describe();
-  out.relative_times = times.relative();
-  if (failed) return out;
-  table::ImportExpectation expected;
-  expected.input = name;
-  expected.columns = out.columns.empty() ? "t,x,y,z" : out.columns;
-  expected.separator =
-      reader.separator_known() ? std::optional<char>(reader.separator()) : options.read.separator;
-  expected.separator_given = options.read.separator.has_value();
-  expected.time_needed = options.time.rate_hz <= 0;
-  out.error = table::import_verdict(out.tally, expected);
-  if (out.error.empty() && out.poses.empty())
-    out.error = name + ": no position" + (out.tally.lines == 0 ? " (an empty file)" : "");
   return out;
 }
 
