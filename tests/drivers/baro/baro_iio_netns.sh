@@ -19,7 +19,7 @@ HERE=$(cd "$(dirname "$0")" && pwd)
 ROOT=$(cd "$HERE/../../.." && pwd)
 source "$ROOT/tests/integration/live_test_lib.sh"
 
-"$BIN/ips-bus-check" --timeout 3 || fail "multicast does not loop back inside the namespace"
+"$BIN/ips-bus-check" --timeout 30 || fail "multicast does not loop back inside the namespace"
 
 SYS="$WORK/sys"
 mkdir -p "$SYS"
@@ -48,10 +48,12 @@ EOF
 
 now_us() { date +%s%6N; }
 lcm-logger -q -f "$WORK/baro.lcm" & logger=$!; pids+=($logger)
-sleep 0.3
+logger_sync "$WORK/baro.lcm"
+# wait_log ARGS...: until the log holds what ARGS ask (tests/drivers/health_wait.py, at most 60 s).
+wait_log() { python3 "$HERE/../health_wait.py" "$WORK/baro.lcm" "$@" || fail "$(cat "$WORK/driver.err")"; }
 "$BIN/ips-baro" --sysfs-root "$SYS" --iio T1=bmp280 --iio "B1=$SYS/iio:device1" --site "$WORK/lab.yaml" \
   --reference B1 --rate-hz 10 --reopen-s 0.2 2>"$WORK/driver.err" & drv=$!; pids+=($drv)
-for ((i = 0; i < 100; i++)); do grep -q "IIO device B1:" "$WORK/driver.err" 2>/dev/null && break; sleep 0.05; done
+for ((i = 0; i < 1200; i++)); do grep -q "IIO device B1:" "$WORK/driver.err" 2>/dev/null && break; sleep 0.05; done
 grep -q "IIO device B1:" "$WORK/driver.err" || fail "ips-baro did not start: $(cat "$WORK/driver.err")"
 t_start=$(now_us)
 sleep 1.2
@@ -60,13 +62,15 @@ attr "$SYS/iio:device0" in_pressure_input $'101.300000000\n'
 sleep 1.0
 t_remove=$(now_us)
 mv "$SYS/iio:device1" "$WORK/away"
-sleep 1.6  # >= one HEALTH while B1 is away
+wait_log --source ips-baro --state 1 --after "$t_remove"  # a HEALTH while B1 is away
 t_restore=$(now_us)
 mv "$WORK/away" "$SYS/iio:device1"
-sleep 1.6
+# B1 back: ten of its samples, and an OK HEALTH stamped 0.5 s after the restore.
+wait_log --channel BARO --contains "iio:device1" --after "$t_restore" --count 10
+wait_log --source ips-baro --state 0 --after $((t_restore + 500000))
 t_end=$(now_us)
 stop $drv ips-baro
-sleep 0.3
+logger_sync "$WORK/baro.lcm"
 stop $logger lcm-logger
 
 grep -q "IIO device B1 is back at $SYS/iio:device1" "$WORK/driver.err" ||

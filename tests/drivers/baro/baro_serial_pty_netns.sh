@@ -18,23 +18,24 @@ HERE=$(cd "$(dirname "$0")" && pwd)
 ROOT=$(cd "$HERE/../../.." && pwd)
 source "$ROOT/tests/integration/live_test_lib.sh"
 
-"$BIN/ips-bus-check" --timeout 3 || fail "multicast does not loop back inside the namespace"
+"$BIN/ips-bus-check" --timeout 30 || fail "multicast does not loop back inside the namespace"
 
 lcm-logger -q -f "$WORK/baro.lcm" & logger=$!; pids+=($logger)
-sleep 0.3
+logger_sync "$WORK/baro.lcm"
 LINK="$WORK/ttyBARO0"
 python3 "$HERE/fake_baro_serial.py" "$LINK" "$WORK/driver.err" "$WORK" & fake=$!; pids+=($fake)
-for ((i = 0; i < 100; i++)); do [ -L "$LINK" ] && break; sleep 0.05; done
+for ((i = 0; i < 1200; i++)); do [ -L "$LINK" ] && break; sleep 0.05; done
 "$BIN/ips-baro" --serial "R1=$LINK" --reference R1=2.4 --reopen-s 0.2 2>"$WORK/driver.err" &
 drv=$!; pids+=($drv)
-for ((i = 0; i < 400; i++)); do [ -e "$WORK/done" ] && break; sleep 0.05; done
+for ((i = 0; i < 2400; i++)); do [ -e "$WORK/done" ] && break; sleep 0.05; done
 [ -e "$WORK/done" ] || { wait $fake || true; fail "the fake barometer did not finish: $(cat "$WORK/driver.err")"; }
-sleep 0.2
+python3 "$HERE/../health_wait.py" "$WORK/baro.lcm" --channel BARO --count 5 ||
+  fail "the last samples were not published: $(cat "$WORK/driver.err")"
 stop $drv ips-baro
 touch "$WORK/stop"
 wait $fake || fail "the fake barometer failed"
 forget $fake
-sleep 0.3
+logger_sync "$WORK/baro.lcm"
 stop $logger lcm-logger
 
 reason() { grep -cF "ips-baro: skipped line from R1 ($LINK): $1" "$WORK/driver.err" || true; }

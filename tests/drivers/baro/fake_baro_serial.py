@@ -11,7 +11,8 @@ link (a hang-up, then the node is gone), as when the USB cable is pulled.
   fake_baro_serial.py LINK DRIVER_LOG WORK
 
 writes WORK/sent.json (every line with the wall time before its write, and the unplug and
-replug times) and WORK/done, then waits for WORK/stop.
+replug times) and WORK/done, then waits for WORK/stop. It waits for the HEALTH reports the test
+checks in WORK/baro.lcm (the lcm-logger's recording), at most 60 s each.
 """
 import json
 import os
@@ -21,6 +22,8 @@ import tty
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', '..', 'integration'))
 import fake_device_lib  # noqa: E402
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), '..'))
+import health_wait  # noqa: E402
 from fake_device_lib import opened_count  # noqa: E402
 
 
@@ -46,6 +49,12 @@ def wait_for(predicate, timeout_s, what):
     fake_device_lib.wait_for(predicate, timeout_s, what, 'fake barometer')
 
 
+def wait_health(work, what, **conditions):
+    missing = health_wait.wait(os.path.join(work, 'baro.lcm'), source='ips-baro', **conditions)
+    if missing:
+        sys.exit(f'fake barometer: timed out waiting for {what}: {missing}')
+
+
 def main(link, log, work):
     dev = Device(link)
     sent = []
@@ -59,7 +68,7 @@ def main(link, log, work):
         sent.append({'t_us': int(time.time() * 1e6), 'text': what})
 
     dev.plug()
-    wait_for(lambda: opened_count(log, link) == 1, 10, 'the driver to open the device')
+    wait_for(lambda: opened_count(log, link) == 1, 60, 'the driver to open the device')
     time.sleep(0.2)
     line('# ips-baro sketch: BMP280 at 0x76')
     line('P 101325.12 T 21.43 H 45.2')
@@ -73,22 +82,23 @@ def main(link, log, work):
     dev.write('1.46 H 44.9\r\n')
     time.sleep(1.3)                                    # past the report limit's second
     line(b'garbage\x00\xff'.decode('latin-1'))         # bad: reported, with the 2 held back
-    time.sleep(1.1)                                    # >= one HEALTH with that reason
+    wait_health(work, 'a HEALTH with that reason', state=1, error="unknown field 'garbage",
+                after=sent[-1]['t_us'])
     line('P 101322', end='', pause=0.2)                # cut by the unplug
     mark('unplug')
     dev.unplug()
-    time.sleep(1.5)                                    # >= one HEALTH while it is away
+    wait_health(work, 'a HEALTH while it is away', state=1, error='gone; retrying',
+                after=sent[-1]['t_us'] + 300000)
     dev.plug()
     mark('replug')
-    wait_for(lambda: opened_count(log, link) == 2, 5, 'the driver to reopen the device')
+    wait_for(lambda: opened_count(log, link) == 2, 60, 'the driver to reopen the device')
     time.sleep(0.1)
     line('P 101322.00 T 21.47', end='\n')              # LF only
-    line('T -5.5 P 101321.5')                          # any order
-    time.sleep(0.3)
+    line('T -5.5 P 101321.5')                          # any order (the test waits for it)
     with open(os.path.join(work, 'sent.json'), 'w') as f:
         json.dump(sent, f)
     open(os.path.join(work, 'done'), 'w').close()
-    wait_for(lambda: os.path.exists(os.path.join(work, 'stop')), 30, 'the end of the test')
+    wait_for(lambda: os.path.exists(os.path.join(work, 'stop')), 60, 'the end of the test')
     dev.unplug()
 
 

@@ -21,7 +21,7 @@ ips_fuzz_target(baro_file drivers/baro/baro_file_fuzz.cpp ips_baro)
 add_test(NAME baro_iio_netns
          COMMAND ${CMAKE_CURRENT_SOURCE_DIR}/drivers/baro/baro_iio_netns.sh
                  ${CMAKE_RUNTIME_OUTPUT_DIRECTORY})
-set_tests_properties(baro_iio_netns PROPERTIES LABELS integration TIMEOUT 60
+set_tests_properties(baro_iio_netns PROPERTIES LABELS integration TIMEOUT 300
                                                SKIP_RETURN_CODE 77 RESOURCE_LOCK cpu_heavy)
 
 # A serial barometer on a pseudo-terminal: exact BARO values of the good lines, the bad lines
@@ -29,7 +29,7 @@ set_tests_properties(baro_iio_netns PROPERTIES LABELS integration TIMEOUT 60
 add_test(NAME baro_serial_pty_netns
          COMMAND ${CMAKE_CURRENT_SOURCE_DIR}/drivers/baro/baro_serial_pty_netns.sh
                  ${CMAKE_RUNTIME_OUTPUT_DIRECTORY})
-set_tests_properties(baro_serial_pty_netns PROPERTIES LABELS integration TIMEOUT 60
+set_tests_properties(baro_serial_pty_netns PROPERTIES LABELS integration TIMEOUT 300
                                                       SKIP_RETURN_CODE 77 RESOURCE_LOCK cpu_heavy)
 
 # Start-up errors: one line, status 2.
