@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cerrno>
 #include <cstring>
+#include <ctime>
 #include <lcm/lcm-cpp.hpp>
 
 #include "core/text_escape.hpp"
@@ -72,6 +73,39 @@ bool ImportOutput::publish(Node& node, double speed) {
     node.publish_raw(channels_[h.channel], h.bytes.data(), h.bytes.size());
   }
   return true;
+}
+
+std::string utc_text(int64_t utime) {
+  const std::time_t s = static_cast<std::time_t>(utime / 1'000'000);
+  std::tm tm{};
+  gmtime_r(&s, &tm);
+  char buf[40];
+  std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &tm);
+  return buf;
+}
+
+int write_or_publish(const std::string& program, ImportOutput& output, const std::string& out_path,
+                     const CommonOptions& opts, double speed, const ImportCounts& counts,
+                     const std::function<void(Node&)>& on_bus, const std::function<void()>& done) {
+  if (!out_path.empty()) {
+    if (const std::string error = output.write_log(out_path); !error.empty()) {
+      print_fatal(program, "--out: " + error);
+      return 1;
+    }
+    if (done) done();
+    return 0;
+  }
+  return run_reporting_errors(program, [&] {
+    Node node(program, opts);
+    node.counters().msgs_in += counts.lines;
+    node.counters().parse_errors += counts.parse_errors;
+    node.counters().drops += counts.drops;
+    if (on_bus) on_bus(node);
+    if (!output.publish(node, speed)) return 0;  // SIGINT/SIGTERM
+    node.publish_health();
+    if (done) done();
+    return 0;
+  });
 }
 
 }  // namespace ips

@@ -61,4 +61,22 @@ class ImportOutput {
   std::vector<Held> held_;
 };
 
+// "2025-03-17T22:02:20Z": the UTC second of a utime, for import summaries.
+std::string utc_text(int64_t utime);
+
+// What a driver's file import read, for its node's counters when it is published.
+struct ImportCounts {
+  int64_t lines = 0, parse_errors = 0, drops = 0;
+};
+
+// The end of a driver's file import: `output` into the new LCM log `out_path` (when it cannot be
+// written: the error line "--out: <why>", status 1), or, with no out_path, published through a
+// Node paced by `speed` (<= 0: as fast as possible) with `counts` in its counters and HEALTH once
+// at the end. `on_bus(node)` runs before publishing; `done()` after the whole output was written
+// or published (not when SIGINT/SIGTERM stopped it). Returns the exit status.
+int write_or_publish(const std::string& program, ImportOutput& output, const std::string& out_path,
+                     const CommonOptions& opts, double speed, const ImportCounts& counts,
+                     const std::function<void(Node&)>& on_bus = {},
+                     const std::function<void()>& done = {});
+
 }  // namespace ips

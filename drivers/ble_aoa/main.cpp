@@ -231,16 +231,6 @@ void summarise(const CaptureCounts& c, const std::string& where) {
       kProgram, c.lines, c.published, where, c.at_lines, c.duplicates, c.range_unknown, c.errors);
 }
 
-// "2025-03-17T22:02:20Z".
-std::string utc_text(int64_t utime) {
-  const std::time_t s = static_cast<std::time_t>(utime / 1'000'000);
-  std::tm tm{};
-  gmtime_r(&s, &tm);
-  char buf[32];
-  std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &tm);
-  return buf;
-}
-
 // What every --capture file was read with.
 struct CaptureSetup {
   EventDecoderConfig base;
@@ -337,7 +327,7 @@ std::string import_capture_file(const std::string& path, const std::vector<std::
     text += std::string(", time in ") + ips::table::time_unit_name(*decoder.time_unit());
   text += "), " + std::to_string(tally.messages) + " events";
   if (tally.messages > 0)
-    text += " from " + utc_text(decoder.first_utime()) + " to " + utc_text(decoder.last_utime());
+    text += " from " + ips::utc_text(decoder.first_utime()) + " to " + ips::utc_text(decoder.last_utime());
   text += ", " + std::to_string(ev.duplicates) + " duplicates dropped, " +
           std::to_string(ev.range_unknown) + " dropped (angle range unknown), " +
           std::to_string(tally.bad) + " rows rejected";
@@ -376,26 +366,15 @@ int run_capture(const std::vector<std::string>& paths, const std::string& out_pa
   if (failed) return 1;
   if (paths.size() > 1)
     spdlog::info("{}: {} events from {} files {}, {} to {}", kProgram, output.size(), paths.size(),
-                 where, utc_text(output.first_utime()), utc_text(output.last_utime()));
-  if (!out_path.empty()) {
-    if (const std::string error = output.write_log(out_path); !error.empty()) {
-      ips::print_fatal(kProgram, "--out: " + error);
-      return 1;
-    }
-    return 0;
-  }
-  return ips::run_reporting_errors(kProgram, [&] {
-    ips::Node node(kProgram, opts);
-    node.counters().msgs_in += totals.lines;
-    node.counters().parse_errors += totals.errors;
-    node.counters().drops += totals.drops;
-    spdlog::info("{}: replaying {} events on {} ({})", kProgram, output.size(),
-                 ips::effective_lcm_url(opts.lcm_url),
-                 speed > 0 ? "speed x" + std::to_string(speed) : std::string("as fast as possible"));
-    if (!output.publish(node, speed)) return 0;  // SIGINT/SIGTERM
-    node.publish_health();
-    return 0;
-  });
+                 where, ips::utc_text(output.first_utime()), ips::utc_text(output.last_utime()));
+  return ips::write_or_publish(
+      kProgram, output, out_path, opts, speed, {totals.lines, totals.errors, totals.drops},
+      [&](ips::Node&) {
+        spdlog::info("{}: replaying {} events on {} ({})", kProgram, output.size(),
+                     ips::effective_lcm_url(opts.lcm_url),
+                     speed > 0 ? "speed x" + std::to_string(speed)
+                               : std::string("as fast as possible"));
+      });
 }
 
 }  // namespace

@@ -8,7 +8,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <ctime>
 #include <limits>
 #include <cstdio>
 #include <filesystem>
@@ -128,15 +127,6 @@ std::optional<std::string> read_file(const std::string& path) {
   return s.str();
 }
 
-std::string iso_time(int64_t utime) {
-  const std::time_t s = static_cast<std::time_t>(utime / 1'000'000);
-  std::tm tm{};
-  gmtime_r(&s, &tm);
-  char buf[40];
-  std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &tm);
-  return buf;
-}
-
 void summary(const std::string& name, const ips::table::ImportTally& t, const std::string& what,
              const std::string& time_unit, int64_t first, int64_t last, const std::string& columns) {
   std::string line = name + ": " + std::to_string(t.rows) + " rows, " + std::to_string(t.messages) +
@@ -146,7 +136,7 @@ void summary(const std::string& name, const ips::table::ImportTally& t, const st
   line += "; columns " + columns + "; time " + time_unit;
   if (last >= first && t.messages > 0) {
     char span[64];
-    std::snprintf(span, sizeof span, " from %s, %.1f s", iso_time(first).c_str(),
+    std::snprintf(span, sizeof span, " from %s, %.1f s", ips::utc_text(first).c_str(),
                   static_cast<double>(last - first) * 1e-6);
     line += span;
   }

@@ -304,27 +304,14 @@ int import_file(std::FILE* file, int64_t size, const FileImportOptions& fo,
     summary += ", " + std::to_string(import.dropped()) +
                " readings dropped (not newer than the previous, or time not plausible)";
   summary += ", " + span_text(import.first_utime(), import.last_utime());
-  if (!out_path.empty()) {
-    if (const std::string error = output.write_log(out_path); !error.empty()) {
-      ips::print_fatal(kProgram, "--out: " + error);
-      return 1;
-    }
-    spdlog::info("{}: {}", kProgram, summary);
-    return 0;
-  }
-  return ips::run_reporting_errors(kProgram, [&] {
-    ips::Node node(kProgram, opts);
-    node.counters().msgs_in = t.lines;
-    node.counters().parse_errors = t.bad;
-    node.counters().drops = import.dropped();
-    if (t.bad > 0)
-      node.report_error("file: " + std::to_string(t.bad) + " rows rejected, the first: line " +
-                        std::to_string(t.first_bad_line) + ": " + t.first_bad_reason);
-    if (!output.publish(node, speed)) return 0;  // SIGINT/SIGTERM
-    node.publish_health();
-    spdlog::info("{}: {}", kProgram, summary);
-    return 0;
-  });
+  return ips::write_or_publish(
+      kProgram, output, out_path, opts, speed, {t.lines, t.bad, import.dropped()},
+      [&](ips::Node& node) {
+        if (t.bad > 0)
+          node.report_error("file: " + std::to_string(t.bad) + " rows rejected, the first: line " +
+                            std::to_string(t.first_bad_line) + ": " + t.first_bad_reason);
+      },
+      [&] { spdlog::info("{}: {}", kProgram, summary); });
 }
 
 }  // namespace
