@@ -23,5 +23,5 @@ set_tests_properties(uwb_tdoa_anchors_cli PROPERTIES LABELS integration TIMEOUT 
 add_test(NAME uwb_tdoa_anchors_netns
          COMMAND ${CMAKE_CURRENT_SOURCE_DIR}/drivers/uwb_tdoa_anchors/uwb_tdoa_netns.sh
                  ${CMAKE_RUNTIME_OUTPUT_DIRECTORY})
-set_tests_properties(uwb_tdoa_anchors_netns PROPERTIES LABELS integration TIMEOUT 60
+set_tests_properties(uwb_tdoa_anchors_netns PROPERTIES LABELS integration TIMEOUT 300
                                                        SKIP_RETURN_CODE 77 RESOURCE_LOCK cpu_heavy)

@@ -51,9 +51,9 @@ expect 1 "is not an LCM log" --to-records "$WORK/noise.bin"
 printf 'hello\nworld\n' > "$WORK/text.txt"
 expect 1 "holds no anchor report record (first: record does not start with '|'" \
   --lcm-url memq:// --log-level off --file "$WORK/text.txt"
-python3 -c 'import socket,time,sys; s=socket.socket(socket.AF_INET,socket.SOCK_DGRAM); s.bind(("127.0.0.1",0)); print(s.getsockname()[1],flush=True); time.sleep(5)' > "$WORK/port" &
+python3 -c 'import socket,time,sys; s=socket.socket(socket.AF_INET,socket.SOCK_DGRAM); s.bind(("127.0.0.1",0)); print(s.getsockname()[1],flush=True); time.sleep(120)' > "$WORK/port" 2>/dev/null &
 holder=$!
-for _ in $(seq 50); do [ -s "$WORK/port" ] && break; sleep 0.05; done
+for _ in $(seq 1200); do [ -s "$WORK/port" ] && break; sleep 0.05; done
 expect 1 "cannot bind UDP 127.0.0.1:$(cat "$WORK/port")" --lcm-url memq:// --udp "$(cat "$WORK/port")"
 kill $holder 2>/dev/null
 

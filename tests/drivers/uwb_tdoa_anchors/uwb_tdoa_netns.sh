@@ -25,14 +25,14 @@ now_us() { date +%s%6N; }
 # Waits until something listens on UDP port $1 in this namespace (/proc/net/udp, hex port).
 wait_udp_bound() {
   local hex; hex=$(printf '%04X' "$1")
-  for _ in $(seq 100); do
+  for _ in $(seq 1200); do
     grep -q "^ *[0-9]*: [0-9A-F]*:$hex " /proc/net/udp && return 0
     sleep 0.05
   done
   fail "nothing bound UDP port $1"
 }
 
-"$BIN/ips-bus-check" --timeout 3 || fail "multicast does not loop back inside the namespace"
+"$BIN/ips-bus-check" --timeout 30 || fail "multicast does not loop back inside the namespace"
 
 # --- 1: a simulated log as records ----------------------------------------------------------
 "$BIN/ips-sim" --scenario tdoa-hall --duration 5 --out "$WORK/sim.lcm" --log-level warn
@@ -48,9 +48,13 @@ grep -qE '^\|000[1-6]\|A\|1001\|bb\|[0-9]{3}\|[0-9]{3}\|([0-9a-f]{2}\|){5}25\.00
   "$WORK/recs.txt" || fail "no blink record: $(head -3 "$WORK/recs.txt")"
 echo "ok: --to-records wrote $n records; ids ${IDS[*]}"
 
-lcm-logger -q -f -c '^(UWB_RX_TCP|UWB_RX_UDP|UWB_RX_FILE|UWB_RX_STDIN|UWB_RX_POWER|HEALTH)$' "$WORK/out.lcm" &
+lcm-logger -q -f -c '^(UWB_RX_TCP|UWB_RX_UDP|UWB_RX_FILE|UWB_RX_STDIN|UWB_RX_POWER|HEALTH|IPS_BUS_CHECK_[0-9]+)$' "$WORK/out.lcm" &
 logger=$!; pids+=($logger)
-sleep 0.5
+logger_sync "$WORK/out.lcm"
+# health_wait ARGS...: until the recording holds a HEALTH of the driver as ARGS ask (at most 60 s).
+health_wait() {
+  python3 "$HERE/../health_wait.py" "$WORK/out.lcm" --source ips-uwb-tdoa-anchors "$@"
+}
 
 # --- 2: TCP, the server starting late and going away once -----------------------------------
 half=$((n / 2))
@@ -61,9 +65,10 @@ drv=$!; pids+=($drv)
 sleep 0.4  # not there yet: refused, retried
 python3 "$HERE/anchor_server.py" tcp 47001 "$WORK/recs.txt" "$half" 1.5 "$WORK/tcp.done" &
 srv=$!; pids+=($srv)
-for _ in $(seq 200); do [ -e "$WORK/tcp.done" ] && break; sleep 0.05; done
+for _ in $(seq 1200); do [ -e "$WORK/tcp.done" ] && break; sleep 0.05; done
 [ -e "$WORK/tcp.done" ] || fail "the TCP server did not finish: $(cat "$WORK/tcp.err")"
-sleep 1.3  # the records, then one HEALTH after the reconnect
+# The records, then one OK HEALTH after the reconnect that counts them all.
+health_wait --state 0 --msgs-in "$n" --after "$t0" || fail "--tcp: $(cat "$WORK/tcp.err")"
 kill -INT $drv; rc=0; wait $drv || rc=$?
 [ "$rc" -eq 0 ] || fail "--tcp: exit status $rc after SIGINT: $(cat "$WORK/tcp.err")"
 wait $srv || true
@@ -78,7 +83,7 @@ t2=$(now_us)
 drv=$!; pids+=($drv)
 wait_udp_bound 47002
 python3 "$HERE/anchor_server.py" udp 47002 "$WORK/recs.txt" "$WORK/bad_datagrams.txt"
-sleep 1.2  # one HEALTH after the last datagram
+health_wait --msgs-in $((n + 2)) --after "$t2" || fail "--udp: a datagram was not counted"
 kill -TERM $drv; rc=0; wait $drv || rc=$?
 [ "$rc" -eq 0 ] || fail "--udp: exit status $rc after SIGTERM"
 t3=$(now_us)
@@ -110,7 +115,7 @@ printf '%s\n' '|0001|E|0001|aa|034|136|3b|3e|87|fe|b5|57.63|' \
 "$DRV" --file "$WORK/examples.txt" --rx-power dw1000-prf64 --channel UWB_RX=UWB_RX_POWER \
   --log-level error || fail "--file --rx-power exited with $?"
 
-sleep 0.5
+logger_sync "$WORK/out.lcm"
 kill -INT $logger; wait $logger || true; pids=()
 
 python3 - "$WORK/sim.lcm" "$WORK/out.lcm" "$n" "$t0 $t1 $t2 $t3 $t3 $t4 $t4 $t5" <<'PY' ||
