@@ -18,12 +18,12 @@ HERE=$(cd "$(dirname "$0")" && pwd)
 ROOT=$(cd "$HERE/../../.." && pwd)
 source "$ROOT/tests/integration/live_test_lib.sh"
 
-"$BIN/ips-bus-check" --timeout 3 || fail "multicast does not loop back inside the namespace"
+"$BIN/ips-bus-check" --timeout 30 || fail "multicast does not loop back inside the namespace"
 lcm-logger -q -f "$WORK/imu.lcm" & logger=$!; pids+=($logger)
-sleep 0.3
+logger_sync "$WORK/imu.lcm"
 "$BIN/ips-phone-imu" --udp-port 47001 --gyro-unit deg/s --http-port 47002 --max-body-bytes 65536 \
   2>"$WORK/driver.err" & drv=$!; pids+=($drv)
-for ((i = 0; i < 100; i++)); do grep -q "HTTP push on" "$WORK/driver.err" 2>/dev/null && break; sleep 0.05; done
+for ((i = 0; i < 1200; i++)); do grep -q "HTTP push on" "$WORK/driver.err" 2>/dev/null && break; sleep 0.05; done
 
 python3 - "$WORK" "$drv" <<'PY' || fail "the sender: $(cat "$WORK/driver.err")"
 import http.client, json, socket, sys, time
@@ -44,7 +44,7 @@ send_udp('not a datagram')            # bad time
 time.sleep(0.2)
 
 def post(path, body, method='POST'):
-    c = http.client.HTTPConnection('127.0.0.1', 47002, timeout=5)
+    c = http.client.HTTPConnection('127.0.0.1', 47002, timeout=60)
     c.request(method, path, body=body, headers={'Content-Type': 'application/json'})
     r = c.getresponse()
     out = (r.status, r.read().decode())
@@ -84,17 +84,31 @@ for k in range(20000):
     udp.sendto(b'%d.0, 3, 1, 2, 3, 4, 0, 0, 0' % (1000 + k), ('127.0.0.1', 47001))
     if k % 200 == 0:
         time.sleep(0.005)
-time.sleep(1.0)
-# The kernel reports queue drops with the next datagram received: one more, after a pause.
+def drained():  # until the driver has read every datagram queued on its UDP port (at most 60 s)
+    end = time.time() + 60
+    while time.time() < end:
+        for line in open('/proc/net/udp').read().splitlines()[1:]:
+            f = line.split()
+            if f[1].endswith(':%04X' % 47001) and int(f[4].split(':')[1], 16) == 0:
+                return
+        time.sleep(0.02)
+    raise AssertionError('ips-phone-imu did not read its queued datagrams within 60 s')
+drained()
+# The kernel reports queue drops with the next datagram received: one more, after the flood.
 udp.sendto(b'999.0, 3, 1, 2, 3', ('127.0.0.1', 47001))
 time.sleep(0.2)
 after = rss_kib()
-json.dump({'times': times, 'rss_before': before, 'rss_after': after}, open(f'{work}/sent.json', 'w'))
+drained()
+json.dump({'times': times, 'rss_before': before, 'rss_after': after,
+           'handled': time.time_ns() // 1000}, open(f'{work}/sent.json', 'w'))
 assert after - before < 8192, f'RSS grew from {before} to {after} KiB during the flood'
 PY
-sleep 1.2
+# A HEALTH stamped after the driver had read the probe: it counts everything (at most 60 s).
+handled=$(python3 -c 'import json, sys; print(json.load(open(sys.argv[1]))["handled"])' "$WORK/sent.json")
+python3 "$HERE/../health_wait.py" "$WORK/imu.lcm" --source ips-phone-imu --after "$handled" ||
+  fail "no HEALTH after the flood: $(cat "$WORK/driver.err")"
 stop $drv ips-phone-imu
-sleep 0.3
+logger_sync "$WORK/imu.lcm"
 stop $logger lcm-logger
 
 python3 - "$WORK" <<'PY' || fail "published messages or HEALTH"

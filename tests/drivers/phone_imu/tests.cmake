@@ -19,14 +19,14 @@ ips_fuzz_target(phone_imu_http drivers/phone_imu/phone_imu_http_fuzz.cpp ips_pho
 add_test(NAME phone_imu_live_netns
          COMMAND ${CMAKE_CURRENT_SOURCE_DIR}/drivers/phone_imu/phone_imu_live_netns.sh
                  ${CMAKE_RUNTIME_OUTPUT_DIRECTORY})
-set_tests_properties(phone_imu_live_netns PROPERTIES LABELS integration TIMEOUT 60
+set_tests_properties(phone_imu_live_netns PROPERTIES LABELS integration TIMEOUT 300
                                                      SKIP_RETURN_CODE 77 RESOURCE_LOCK cpu_heavy)
 
 # --file: a recorded file to an exact LCM log (--out) and onto the bus (--as-fast-as-possible).
 add_test(NAME phone_imu_file_import
          COMMAND ${CMAKE_CURRENT_SOURCE_DIR}/drivers/phone_imu/phone_imu_file_import.sh
                  ${CMAKE_RUNTIME_OUTPUT_DIRECTORY})
-set_tests_properties(phone_imu_file_import PROPERTIES LABELS integration TIMEOUT 60
+set_tests_properties(phone_imu_file_import PROPERTIES LABELS integration TIMEOUT 300
                                                       SKIP_RETURN_CODE 77 RESOURCE_LOCK cpu_heavy)
 
 # Start-up errors: one line, status 2.

@@ -10,6 +10,8 @@ hang-up, then the node is gone).
       the driver only listens: writes PANS and RANGE lines (good and garbled), unplugs, waits,
       plugs in a new pty at the same link, writes more; writes WORK/sent.json (what was sent,
       with the wall time before each write) and WORK/listen.done, then waits for WORK/stop.
+      It waits for the HEALTH reports the test checks in WORK/listen.lcm (the lcm-logger's
+      recording), at most 60 s each.
   fake_uwb_device.py shell LINK WORK
       a DWM1001 with its shell: silent until "\\r\\r" (then a banner and the prompt), streams
       lec lines after "lec\\r", stops on the second "lec\\r"; records every byte it received
@@ -21,6 +23,16 @@ import select
 import sys
 import time
 import tty
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), '..'))
+import health_wait  # noqa: E402
+
+
+def wait_health(work, what, **conditions):
+    missing = health_wait.wait(os.path.join(work, 'listen.lcm'), source='ips-uwb-serial',
+                               **conditions)
+    if missing:
+        sys.exit(f'fake device: timed out waiting for {what}: {missing}')
 
 GUIDE_LEC = ('DIST,4,AN0,1151,5.00,8.00,2.25,6.44,AN1,0CA8,0.00,8.00,2.25,6.50,AN2,111C,5.00,'
              '0.00,2.25,3.24,AN3,1150,0.00,0.00,2.25,3.19,POS,2.55,2.01,1.71,98')
@@ -66,10 +78,11 @@ def listen(link, log, work):
         sent.append({'t_us': int(time.time() * 1e6), 'text': text})
         dev.send(text)
 
-    # Missing at start: the driver is already running and retrying.
-    time.sleep(0.6)
+    # Missing at start: the driver is already running and retrying, and has said so in HEALTH.
+    wait_health(work, 'a HEALTH saying the device is missing', state=1,
+                error='not available (No such file or directory)')
     dev = Pty(link)
-    wait_for(lambda: opened_count(log) == 1, 5, 'the driver to open the device')
+    wait_for(lambda: opened_count(log) == 1, 60, 'the driver to open the device')
     send(dev, 'dwm> lec\r\n')                                   # shell echo: ignored
     send(dev, GUIDE_LEC + '\r\n')                               # 4 ranges + position
     send(dev, 'DIST,2,AN0,2F2F,3.05,2.68,0.00,2.21,AN1,2c9d,-0.04,2.91,0.00,2.39\r\n')
@@ -81,19 +94,21 @@ def listen(link, log, work):
     send(dev, 'RANGE T7 A3 nan\n')                              # garbled
     send(dev, 'x' * 5000 + '\n')                                # overlong
     send(dev, 'POS,1.00,2.00,0.50,0\r\n')                       # no fix: not published
-    send(dev, 'RANGE T7 A3 9.99')                               # cut by the unplug: lost
-    time.sleep(0.5)
+    # Every line before read (msgs_in 8: the echo up to POS), then one cut by the unplug: lost.
+    wait_health(work, 'a HEALTH counting the 8 lines', msgs_in=8, after=sent[0]['t_us'])
+    send(dev, 'RANGE T7 A3 9.99')
+    time.sleep(0.05)
+    t_unplug = int(time.time() * 1e6)
     dev.unplug()
-    time.sleep(1.6)                                             # >= one HEALTH while gone
+    wait_health(work, 'a HEALTH while gone', state=1, error='gone; retrying', after=t_unplug)
     dev = Pty(link)
-    wait_for(lambda: opened_count(log) == 2, 5, 'the driver to reopen the device')
+    wait_for(lambda: opened_count(log) == 2, 60, 'the driver to reopen the device')
     send(dev, 'RANGE T7 A3 4.30 -79.0\n')
-    send(dev, GUIDE_LEC + '\r\n')
-    time.sleep(0.3)
+    send(dev, GUIDE_LEC + '\r\n')                               # the test waits for these
     with open(os.path.join(work, 'sent.json'), 'w') as f:
         json.dump(sent, f)
     open(os.path.join(work, 'listen.done'), 'w').close()
-    wait_for(lambda: os.path.exists(os.path.join(work, 'stop')), 30, 'the end of the test')
+    wait_for(lambda: os.path.exists(os.path.join(work, 'stop')), 60, 'the end of the test')
     dev.unplug()
 
 
@@ -112,7 +127,7 @@ def shell(link, work):
     received = b''
     in_shell = False
     lec_on = False
-    end = time.monotonic() + 15
+    end = time.monotonic() + 60
     while time.monotonic() < end and not received.endswith(b'quit\r'):
         r, _, _ = select.select([dev.master], [], [], 0.05)
         if not r:

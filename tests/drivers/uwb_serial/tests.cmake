@@ -17,7 +17,7 @@ ips_fuzz_target(uwb_serial_lines drivers/uwb_serial/uwb_serial_lines_fuzz.cpp ip
 add_test(NAME uwb_serial_pty_netns
          COMMAND ${CMAKE_CURRENT_SOURCE_DIR}/drivers/uwb_serial/uwb_serial_pty_netns.sh
                  ${CMAKE_RUNTIME_OUTPUT_DIRECTORY})
-set_tests_properties(uwb_serial_pty_netns PROPERTIES LABELS integration TIMEOUT 60
+set_tests_properties(uwb_serial_pty_netns PROPERTIES LABELS integration TIMEOUT 300
                                                      SKIP_RETURN_CODE 77 RESOURCE_LOCK cpu_heavy)
 
 # Start-up errors: one line, status 2.

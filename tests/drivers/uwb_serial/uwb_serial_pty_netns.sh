@@ -23,22 +23,27 @@ wait_file() {  # path seconds
   fail "timed out waiting for $1"
 }
 
-"$BIN/ips-bus-check" --timeout 3 || fail "multicast does not loop back inside the namespace"
+"$BIN/ips-bus-check" --timeout 30 || fail "multicast does not loop back inside the namespace"
 
 # --- 1: listen mode, missing at start, unplug and replug -------------------------------------
 lcm-logger -q -f "$WORK/listen.lcm" & logger=$!; pids+=($logger)
-sleep 0.3
+logger_sync "$WORK/listen.lcm"
+# published LOG CHANNEL N: until LOG holds N messages on CHANNEL (at most 60 s).
+published() {
+  python3 "$HERE/../health_wait.py" "$1" --channel "$2" --count "$3" || fail "$2 not published"
+}
 DEV="$WORK/ttyUWB"
 "$BIN/ips-uwb-serial" --device "$DEV" --format auto --tag 1A2B --reopen-s 0.2 \
   2>"$WORK/listen.err" & drv=$!; pids+=($drv)
 python3 "$FAKE" listen "$DEV" "$WORK/listen.err" "$WORK" & fake=$!; pids+=($fake)
-wait_file "$WORK/listen.done" 15
-sleep 0.2
+wait_file "$WORK/listen.done" 120
+published "$WORK/listen.lcm" UWB_RANGE 13
+published "$WORK/listen.lcm" POSE_UWB_MODULE 2
 stop $drv ips-uwb-serial
 touch "$WORK/stop"
 wait $fake || fail "the fake device failed"
 forget $fake
-sleep 0.3
+logger_sync "$WORK/listen.lcm"
 stop $logger lcm-logger
 grep -q "not available (No such file or directory); retrying every 0.2 s" "$WORK/listen.err" ||
   fail "no clear log line for the missing device: $(cat "$WORK/listen.err")"
@@ -96,18 +101,19 @@ grep -q "skipped line: DIST: says 3 anchors, line has 2" "$WORK/listen.err" ||
 
 # --- 2: --pans-shell ---------------------------------------------------------------------------
 lcm-logger -q -f "$WORK/shell.lcm" & logger=$!; pids+=($logger)
-sleep 0.3
+logger_sync "$WORK/shell.lcm"
 DEV="$WORK/ttyPANS"
 python3 "$FAKE" shell "$DEV" "$WORK" & fake=$!; pids+=($fake)
-for ((i = 0; i < 100; i++)); do [ -L "$DEV" ] && break; sleep 0.05; done
+for ((i = 0; i < 1200; i++)); do [ -L "$DEV" ] && break; sleep 0.05; done
 "$BIN/ips-uwb-serial" --device "$DEV" --tag 0C1D --pans-shell 2>"$WORK/shell.err" & drv=$!
 pids+=($drv)
-wait_file "$WORK/streaming" 10
-sleep 0.3
+wait_file "$WORK/streaming" 60
+published "$WORK/shell.lcm" UWB_RANGE 6
+published "$WORK/shell.lcm" POSE_UWB_MODULE 3
 stop $drv ips-uwb-serial
 wait $fake || fail "the fake DWM1001 failed"
 forget $fake
-sleep 0.3
+logger_sync "$WORK/shell.lcm"
 stop $logger lcm-logger
 python3 - "$WORK/received.bin" <<'PY' || fail "the shell conversation"
 import sys
