@@ -72,9 +72,9 @@ print('ok: --out: 5 messages exactly, times in Europe/Prague; the default zone i
 PY
 
 # --- 2: onto the bus -------------------------------------------------------------------------
-"$BIN/ips-bus-check" --timeout 3 || fail "multicast does not loop back inside the namespace"
+"$BIN/ips-bus-check" --timeout 30 || fail "multicast does not loop back inside the namespace"
 lcm-logger -q -f "$WORK/live.lcm" & logger=$!; pids+=($logger)
-sleep 0.3
+logger_sync "$WORK/live.lcm"
 t0=$(date +%s%N)
 "$BIN/ips-ble-aoa" "${COMMON[@]}" --timezone +01:00 --speed 2 2>"$WORK/live.err" ||
   fail "--speed 2: status $?: $(cat "$WORK/live.err")"
@@ -82,7 +82,7 @@ t1=$(date +%s%N)
 "$BIN/ips-ble-aoa" "${COMMON[@]}" --timezone +01:00 --as-fast-as-possible 2>"$WORK/fast.err" ||
   fail "--as-fast-as-possible: status $?: $(cat "$WORK/fast.err")"
 t2=$(date +%s%N)
-sleep 0.3
+logger_sync "$WORK/live.lcm"
 stop $logger lcm-logger
 python3 - "$WORK" $((t1 - t0)) $((t2 - t1)) <<'PY' || fail "onto the bus"
 import sys

@@ -20,24 +20,25 @@ HERE=$(cd "$(dirname "$0")" && pwd)
 ROOT=$(cd "$HERE/../../.." && pwd)
 source "$ROOT/tests/integration/live_test_lib.sh"
 
-"$BIN/ips-bus-check" --timeout 3 || fail "multicast does not loop back inside the namespace"
+"$BIN/ips-bus-check" --timeout 30 || fail "multicast does not loop back inside the namespace"
 
 lcm-logger -q -f "$WORK/aoa.lcm" & logger=$!; pids+=($logger)
-sleep 0.3
+logger_sync "$WORK/aoa.lcm"
 A="$WORK/ttyAOA0" B="$WORK/ttyAOA1" C="$WORK/ttyAOA2"
 python3 "$HERE/fake_xplr_aoa.py" "$A" "$B" "$C" "$WORK/driver.err" "$WORK" & fake=$!; pids+=($fake)
-for ((i = 0; i < 100; i++)); do [ -L "$A" ] && [ -L "$B" ] && [ -L "$C" ] && break; sleep 0.05; done
+for ((i = 0; i < 1200; i++)); do [ -L "$A" ] && [ -L "$B" ] && [ -L "$C" ] && break; sleep 0.05; done
 "$BIN/ips-ble-aoa" --device "$A" --device "$B" --device "$C" --enable-events \
   --at-command AT+UDFCFG=1,50 --angle-range auto --anchor-name 6C1DEBA0AAAA=A2 --reopen-s 0.2 \
   2>"$WORK/driver.err" & drv=$!; pids+=($drv)
-for ((i = 0; i < 400; i++)); do [ -e "$WORK/done" ] && break; sleep 0.05; done
+for ((i = 0; i < 2400; i++)); do [ -e "$WORK/done" ] && break; sleep 0.05; done
 [ -e "$WORK/done" ] || { wait $fake || true; fail "the fake anchors did not finish: $(cat "$WORK/driver.err")"; }
-sleep 0.2
+python3 "$HERE/../health_wait.py" "$WORK/aoa.lcm" --channel BLE_AOA --count 14 ||
+  fail "the last events were not published: $(cat "$WORK/driver.err")"
 stop $drv ips-ble-aoa
 touch "$WORK/stop"
 wait $fake || fail "the fake anchors failed"
 forget $fake
-sleep 0.3
+logger_sync "$WORK/aoa.lcm"
 stop $logger lcm-logger
 
 grep -q "skipped line from $A: not a +UUDF event or an AT response" "$WORK/driver.err" ||

@@ -15,7 +15,8 @@ command and streams anyway, as an anchor set to calculate angles at start-up doe
 
 writes WORK/sent.json (every event line, with the wall time before its write, and the unplug and
 replug times of A), WORK/received.json (the bytes each anchor received, per plug-in), and
-WORK/done; then waits for WORK/stop.
+WORK/done; then waits for WORK/stop. It waits for the HEALTH reports the test checks in
+WORK/aoa.lcm (the lcm-logger's recording), at most 60 s each.
 """
 import json
 import os
@@ -28,6 +29,8 @@ import tty
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', '..', 'integration'))
 import fake_device_lib  # noqa: E402
 from fake_device_lib import opened_count  # noqa: E402
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), '..'))
+import health_wait  # noqa: E402
 
 COMMAND_OK = b'\r\nOK\r\n'
 
@@ -114,6 +117,12 @@ def wait_for(predicate, timeout_s, what):
     fake_device_lib.wait_for(predicate, timeout_s, what, 'fake anchors')
 
 
+def wait_health(work, what, **conditions):
+    missing = health_wait.wait(os.path.join(work, 'aoa.lcm'), source='ips-ble-aoa', **conditions)
+    if missing:
+        sys.exit(f'fake anchors: timed out waiting for {what}: {missing}')
+
+
 def main(link_a, link_b, link_c, log, work):
     a = Anchor('A', link_a, '6C1DEBA09862')
     b = Anchor('B', link_b, '6C1DEBA0AAAA')
@@ -130,13 +139,15 @@ def main(link_a, link_b, link_c, log, work):
     stop = threading.Event()
     server = threading.Thread(target=service, args=(anchors, stop), daemon=True)
     server.start()
-    wait_for(lambda: all(opened_count(log, x.link) == 1 for x in anchors), 10,
+    wait_for(lambda: all(opened_count(log, x.link) == 1 for x in anchors), 60,
              'the driver to open the three anchors')
     # Garbled first lines: what a port still held (the tail of an event, line noise).
     a.send(b'\x00\xfe\x13 5F60C,-68,-30,42\r\n+UUDF:6C1DEBA5F60C,-68,-30,4\r\n')
-    wait_for(lambda: a.enabled.is_set() and b.enabled.is_set() and c.refused.is_set(), 10,
+    wait_for(lambda: a.enabled.is_set() and b.enabled.is_set() and c.refused.is_set(), 60,
              'the AT conversations')
-    time.sleep(1.2)  # >= one HEALTH naming C's refused command before anything else goes wrong
+    # One HEALTH naming C's refused command before anything else goes wrong.
+    wait_health(work, "a HEALTH naming C's refused command",
+                error='the anchor answered ERROR to AT+UDFCFG=1,50')
 
     event(a, '+UUDF:6C1DEBA5F60C,-68,-30,42,0,37,"6C1DEBA09862","",1606101,25')
     event(a, '+UUDF:6C1DEBA5F60C,-67,-28,40,0,38,"6C1DEBA09862","",1606201,26')
@@ -155,25 +166,27 @@ def main(link_a, link_b, link_c, log, work):
     time.sleep(0.3)                                                                 # the unplug
     sent.append({'anchor': 'A', 't_us': int(time.time() * 1e6), 'text': 'unplug'})
     a.unplug()
-    for k in range(5):  # B keeps publishing while A is gone (>= one HEALTH while gone)
+    t_unplug = sent[-1]['t_us']
+    for k in range(5):  # B keeps publishing while A is gone
         time.sleep(0.3)
         event(b, f'+UUDF:6C1DEBA5F60D,-70,{91 + k},80,-71,37,"6C1DEBA0AAAA","",{6000 + 100 * k}')
-    time.sleep(0.3)
+    # A HEALTH while A is gone, and B's five events published before the replug.
+    wait_health(work, "a HEALTH while A is gone and B's events", state=1, error='gone; retrying',
+                after=t_unplug, channel='BLE_AOA', count=5)
     a.plug()
     sent.append({'anchor': 'A', 't_us': int(time.time() * 1e6), 'text': 'replug'})
-    wait_for(lambda: opened_count(log, a.link) == 2, 5, 'the driver to reopen A')
-    wait_for(a.enabled.is_set, 5, "A's second AT conversation")
+    wait_for(lambda: opened_count(log, a.link) == 2, 60, 'the driver to reopen A')
+    wait_for(a.enabled.is_set, 60, "A's second AT conversation")
     time.sleep(0.1)
     # Replugging the USB cable powered the board again: uptime and counter start over.
     event(a, '+UUDF:6C1DEBA5F60C,-66,-10,30,0,37,"6C1DEBA09862","",1200,0')
-    event(a, '+UUDF:6C1DEBA5F60C,-65,-5,31,0,38,"6C1DEBA09862","",1300,1')
-    time.sleep(0.4)
+    event(a, '+UUDF:6C1DEBA5F60C,-65,-5,31,0,38,"6C1DEBA09862","",1300,1')  # the test waits
     with open(os.path.join(work, 'sent.json'), 'w') as f:
         json.dump(sent, f)
     with open(os.path.join(work, 'received.json'), 'w') as f:
         json.dump({x.name: [s.decode('latin-1') for s in x.sessions] for x in anchors}, f)
     open(os.path.join(work, 'done'), 'w').close()
-    wait_for(lambda: os.path.exists(os.path.join(work, 'stop')), 30, 'the end of the test')
+    wait_for(lambda: os.path.exists(os.path.join(work, 'stop')), 60, 'the end of the test')
     stop.set()
     for x in anchors:
         x.unplug()

@@ -20,14 +20,14 @@ ips_fuzz_target(ble_aoa_uudf_table drivers/ble_aoa/ble_aoa_uudf_table_fuzz.cpp i
 add_test(NAME ble_aoa_pty_netns
          COMMAND ${CMAKE_CURRENT_SOURCE_DIR}/drivers/ble_aoa/ble_aoa_pty_netns.sh
                  ${CMAKE_RUNTIME_OUTPUT_DIRECTORY})
-set_tests_properties(ble_aoa_pty_netns PROPERTIES LABELS integration TIMEOUT 60
+set_tests_properties(ble_aoa_pty_netns PROPERTIES LABELS integration TIMEOUT 300
                                                   SKIP_RETURN_CODE 77 RESOURCE_LOCK cpu_heavy)
 
 # --capture: a CSV capture to an exact LCM log (--out) and onto the bus (--speed, lcm-logger).
 add_test(NAME ble_aoa_capture_replay
          COMMAND ${CMAKE_CURRENT_SOURCE_DIR}/drivers/ble_aoa/ble_aoa_capture_replay.sh
                  ${CMAKE_RUNTIME_OUTPUT_DIRECTORY})
-set_tests_properties(ble_aoa_capture_replay PROPERTIES LABELS integration TIMEOUT 60
+set_tests_properties(ble_aoa_capture_replay PROPERTIES LABELS integration TIMEOUT 300
                                                        SKIP_RETURN_CODE 77 RESOURCE_LOCK cpu_heavy)
 
 # Start-up errors: one line, status 2.

@@ -21,12 +21,12 @@ set_tests_properties(uwb_can_cli PROPERTIES LABELS integration TIMEOUT 60)
 add_test(NAME uwb_can_candump_netns
          COMMAND ${CMAKE_CURRENT_SOURCE_DIR}/drivers/uwb_can/candump_replay_netns.sh
                  ${CMAKE_RUNTIME_OUTPUT_DIRECTORY})
-set_tests_properties(uwb_can_candump_netns PROPERTIES LABELS integration TIMEOUT 60
+set_tests_properties(uwb_can_candump_netns PROPERTIES LABELS integration TIMEOUT 300
                                                       SKIP_RETURN_CODE 77 RESOURCE_LOCK cpu_heavy)
 
 # cansend -> vcan0 -> ips-uwb-can -> LCM; skipped (77, with the reason) without vcan or cansend.
 add_test(NAME uwb_can_vcan_netns
          COMMAND ${CMAKE_CURRENT_SOURCE_DIR}/drivers/uwb_can/vcan_live_netns.sh
                  ${CMAKE_RUNTIME_OUTPUT_DIRECTORY})
-set_tests_properties(uwb_can_vcan_netns PROPERTIES LABELS integration TIMEOUT 60
+set_tests_properties(uwb_can_vcan_netns PROPERTIES LABELS integration TIMEOUT 300
                                                    SKIP_RETURN_CODE 77 RESOURCE_LOCK cpu_heavy)

@@ -27,12 +27,12 @@ ip link set vcan0 mtu 72  # CANFD_MTU: CAN FD frames too
 ip link set up vcan0
 export PYTHONPATH="$HERE:$ROOT/tests/integration"
 
-"$BIN/ips-bus-check" --timeout 3 || fail "multicast does not loop back inside the namespace"
-lcm-logger -q -f -c '^(UWB_RANGE|HEALTH)$' "$WORK/out.lcm" & logger=$!; pids+=($logger)
+"$BIN/ips-bus-check" --timeout 30 || fail "multicast does not loop back inside the namespace"
+lcm-logger -q -f -c '^(UWB_RANGE|HEALTH|IPS_BUS_CHECK_[0-9]+)$' "$WORK/out.lcm" & logger=$!; pids+=($logger)
 "$BIN/ips-uwb-can" --interface vcan0 --fd --anchor-id 4=hall-east --log-level warn &
 uwb=$!; pids+=($uwb)
-"$BIN/ips-bus-check" --wait-for ips-uwb-can --timeout 20 || fail "ips-uwb-can did not come up"
-sleep 0.3
+"$BIN/ips-bus-check" --wait-for ips-uwb-can --timeout 60 || fail "ips-uwb-can did not come up"
+logger_sync "$WORK/out.lcm"
 t0=$(date +%s%6N)
 cansend vcan0 301#0100E80300006407      # anchor 1 (A1), tag 1, 1000 mm, quality 100 %, seq 7
 cansend vcan0 123#DEADBEEF              # another device
@@ -41,11 +41,13 @@ cansend vcan0 302#0100                  # 2 bytes on anchor 2's id: a parse erro
 cansend vcan0 302#2A00393000003205      # anchor 2, tag 42, 12345 mm, 50 %, seq 5
 cansend vcan0 304##1FFFFF4010000FFFF    # CAN FD, BRS: anchor 4 (hall-east), tag 65535, 500 mm, no quality, seq 255
 t1=$(date +%s%6N)
-sleep 1.5  # one more HEALTH
+# One more HEALTH, counting the six frames (at most 60 s).
+python3 "$HERE/../health_wait.py" "$WORK/out.lcm" --source ips-uwb-can --msgs-in 6 --after "$t1" ||
+  fail "no HEALTH counting the frames"
 kill -INT $uwb
 rc=0; wait $uwb || rc=$?
 [ "$rc" -eq 0 ] || fail "ips-uwb-can exited with $rc after SIGINT"
-sleep 0.3
+logger_sync "$WORK/out.lcm"
 kill -INT $logger; wait $logger || true; pids=()
 
 python3 - "$WORK/out.lcm" "$t0" "$t1" <<'PY' || fail "published ranges"
