@@ -27,7 +27,7 @@ def tcp(port, records, split, pause_s, done):
         srv.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
         srv.bind(('127.0.0.1', port))
         srv.listen(1)
-        srv.settimeout(20)
+        srv.settimeout(60)
         conn, _ = srv.accept()
         conn.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
         # Pieces of 1 to 97 bytes, a pause every few, so that records straddle reads.
@@ -45,7 +45,7 @@ def tcp(port, records, split, pause_s, done):
             conn.close()
             time.sleep(pause_s)
     open(done, 'w').close()
-    conn.settimeout(30)
+    conn.settimeout(60)
     try:
         while conn.recv(4096):
             pass
