@@ -78,6 +78,6 @@ refuse "--channel: unknown kind 'BAROX'" "${I[@]}" --iio T1=bmp280 --channel BAR
 out=$("$BIN/ips-baro" --help) || fail "--help: status $?"
 for flag in --iio --serial --baud --reopen-s --rate-hz --oversampling --sysfs-root --reference \
   --site --lcm-url --channel --log-level; do
-  echo "$out" | grep -q -- "$flag" || fail "--help does not list $flag"
+  grep -q -- "$flag" <<<"$out" || fail "--help does not list $flag"
 done
 echo "ok: --help lists every flag"

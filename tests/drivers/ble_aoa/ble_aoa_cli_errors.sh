@@ -56,6 +56,6 @@ out=$("$BIN/ips-ble-aoa" --help) || fail "--help: status $?"
 for flag in --device --baud --reopen-s --enable-events --at-command --angle-range --legacy-offset-deg \
   --duplicate-window-s --anchor-name --capture --out --speed --as-fast-as-possible --timezone \
   --lcm-url --channel --log-level; do
-  echo "$out" | grep -q -- "$flag" || fail "--help does not list $flag"
+  grep -q -- "$flag" <<<"$out" || fail "--help does not list $flag"
 done
 echo "ok: --help lists every flag"

@@ -63,6 +63,6 @@ for flag in --udp-port --udp-bind --columns --udp-time-unit --max-datagram-bytes
   --separator --header --time-unit --file-start --rate \
   --accel-unit --gyro-unit --mag-unit --assemble --pair-window-s --clock-window-s --clock-jump-s \
   --device-id --lcm-url --channel --log-level; do
-  echo "$out" | grep -q -- "$flag" || fail "--help does not list $flag"
+  grep -q -- "$flag" <<<"$out" || fail "--help does not list $flag"
 done
 echo "ok: --help lists every flag"

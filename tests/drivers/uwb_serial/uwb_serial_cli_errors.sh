@@ -36,6 +36,6 @@ refuse "--channel: unknown kind" --device "$WORK/ttyUWB" --format line --channel
 
 out=$("$BIN/ips-uwb-serial" --help) || fail "--help: status $?"
 for flag in --device --baud --format --tag --pans-shell --reopen-s --lcm-url --channel --log-level; do
-  echo "$out" | grep -q -- "$flag" || fail "--help does not list $flag"
+  grep -q -- "$flag" <<<"$out" || fail "--help does not list $flag"
 done
 echo "ok: --help lists every flag"
