@@ -19,6 +19,8 @@ HERE=$(cd "$(dirname "$0")" && pwd)
 ROOT=$(cd "$HERE/../../.." && pwd)
 source "$ROOT/tests/integration/live_test_lib.sh"
 
+lcm-logger -q -f "$WORK/baro.lcm" & logger=$!; pids+=($logger)
+# The logger starts first: subscribed by the time of logger_sync (whose first probe is then kept).
 "$BIN/ips-bus-check" --timeout 30 || fail "multicast does not loop back inside the namespace"
 
 SYS="$WORK/sys"
@@ -47,7 +49,6 @@ baro_stations:
 EOF
 
 now_us() { date +%s%6N; }
-lcm-logger -q -f "$WORK/baro.lcm" & logger=$!; pids+=($logger)
 logger_sync "$WORK/baro.lcm"
 # wait_log ARGS...: until the log holds what ARGS ask (tests/drivers/health_wait.py, at most 60 s).
 wait_log() { python3 "$HERE/../health_wait.py" "$WORK/baro.lcm" "$@" || fail "$(cat "$WORK/driver.err")"; }
@@ -62,7 +63,8 @@ attr "$SYS/iio:device0" in_pressure_input $'101.300000000\n'
 sleep 1.0
 t_remove=$(now_us)
 mv "$SYS/iio:device1" "$WORK/away"
-wait_log --source ips-baro --state 1 --after "$t_remove"  # a HEALTH while B1 is away
+# While B1 is away: a degraded HEALTH, and 13 T1 samples (T1 goes on).
+wait_log --source ips-baro --state 1 --after "$t_remove" --channel BARO --contains "iio:device0" --count 13
 t_restore=$(now_us)
 mv "$WORK/away" "$SYS/iio:device1"
 # B1 back: ten of its samples, and an OK HEALTH stamped 0.5 s after the restore.

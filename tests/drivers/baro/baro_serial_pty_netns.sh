@@ -18,9 +18,10 @@ HERE=$(cd "$(dirname "$0")" && pwd)
 ROOT=$(cd "$HERE/../../.." && pwd)
 source "$ROOT/tests/integration/live_test_lib.sh"
 
+lcm-logger -q -f "$WORK/baro.lcm" & logger=$!; pids+=($logger)
+# The logger starts first: subscribed by the time of logger_sync (whose first probe is then kept).
 "$BIN/ips-bus-check" --timeout 30 || fail "multicast does not loop back inside the namespace"
 
-lcm-logger -q -f "$WORK/baro.lcm" & logger=$!; pids+=($logger)
 logger_sync "$WORK/baro.lcm"
 LINK="$WORK/ttyBARO0"
 python3 "$HERE/fake_baro_serial.py" "$LINK" "$WORK/driver.err" "$WORK" & fake=$!; pids+=($fake)

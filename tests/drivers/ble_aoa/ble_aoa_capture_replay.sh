@@ -72,8 +72,8 @@ print('ok: --out: 5 messages exactly, times in Europe/Prague; the default zone i
 PY
 
 # --- 2: onto the bus -------------------------------------------------------------------------
-"$BIN/ips-bus-check" --timeout 30 || fail "multicast does not loop back inside the namespace"
 lcm-logger -q -f "$WORK/live.lcm" & logger=$!; pids+=($logger)
+"$BIN/ips-bus-check" --timeout 30 || fail "multicast does not loop back inside the namespace"
 logger_sync "$WORK/live.lcm"
 t0=$(date +%s%N)
 "$BIN/ips-ble-aoa" "${COMMON[@]}" --timezone +01:00 --speed 2 2>"$WORK/live.err" ||

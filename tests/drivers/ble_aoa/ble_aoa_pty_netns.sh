@@ -20,9 +20,10 @@ HERE=$(cd "$(dirname "$0")" && pwd)
 ROOT=$(cd "$HERE/../../.." && pwd)
 source "$ROOT/tests/integration/live_test_lib.sh"
 
+lcm-logger -q -f "$WORK/aoa.lcm" & logger=$!; pids+=($logger)
+# The logger starts first: subscribed by the time of logger_sync (whose first probe is then kept).
 "$BIN/ips-bus-check" --timeout 30 || fail "multicast does not loop back inside the namespace"
 
-lcm-logger -q -f "$WORK/aoa.lcm" & logger=$!; pids+=($logger)
 logger_sync "$WORK/aoa.lcm"
 A="$WORK/ttyAOA0" B="$WORK/ttyAOA1" C="$WORK/ttyAOA2"
 python3 "$HERE/fake_xplr_aoa.py" "$A" "$B" "$C" "$WORK/driver.err" "$WORK" & fake=$!; pids+=($fake)

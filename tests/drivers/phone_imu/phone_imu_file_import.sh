@@ -66,8 +66,8 @@ assert [(m[0], m[2], m[3]) for m in boot] == [(1700000000500000, 'mi9', 7000000)
 print('ok: --out: 3 messages exactly; --file-start-s maps time since boot')
 PY
 
-"$BIN/ips-bus-check" --timeout 30 || fail "multicast does not loop back inside the namespace"
 lcm-logger -q -f "$WORK/live.lcm" & logger=$!; pids+=($logger)
+"$BIN/ips-bus-check" --timeout 30 || fail "multicast does not loop back inside the namespace"
 logger_sync "$WORK/live.lcm"
 "$BIN/ips-phone-imu" --file "$WORK/walk.txt" --as-fast-as-possible 2>"$WORK/live.err" ||
   fail "--as-fast-as-possible: status $?: $(cat "$WORK/live.err")"

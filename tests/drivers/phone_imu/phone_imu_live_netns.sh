@@ -18,8 +18,9 @@ HERE=$(cd "$(dirname "$0")" && pwd)
 ROOT=$(cd "$HERE/../../.." && pwd)
 source "$ROOT/tests/integration/live_test_lib.sh"
 
-"$BIN/ips-bus-check" --timeout 30 || fail "multicast does not loop back inside the namespace"
 lcm-logger -q -f "$WORK/imu.lcm" & logger=$!; pids+=($logger)
+# The logger starts first: subscribed by the time of logger_sync (whose first probe is then kept).
+"$BIN/ips-bus-check" --timeout 30 || fail "multicast does not loop back inside the namespace"
 logger_sync "$WORK/imu.lcm"
 "$BIN/ips-phone-imu" --udp-port 47001 --gyro-unit deg/s --http-port 47002 --max-body-bytes 65536 \
   2>"$WORK/driver.err" & drv=$!; pids+=($drv)

@@ -23,10 +23,11 @@ wait_file() {  # path seconds
   fail "timed out waiting for $1"
 }
 
+lcm-logger -q -f "$WORK/listen.lcm" & logger=$!; pids+=($logger)
+# The logger starts first: subscribed by the time of logger_sync (whose first probe is then kept).
 "$BIN/ips-bus-check" --timeout 30 || fail "multicast does not loop back inside the namespace"
 
 # --- 1: listen mode, missing at start, unplug and replug -------------------------------------
-lcm-logger -q -f "$WORK/listen.lcm" & logger=$!; pids+=($logger)
 logger_sync "$WORK/listen.lcm"
 # published LOG CHANNEL N: until LOG holds N messages on CHANNEL (at most 60 s).
 published() {
