@@ -67,9 +67,9 @@ mv "$SYS/iio:device1" "$WORK/away"
 wait_log --source ips-baro --state 1 --after "$t_remove" --channel BARO --contains "iio:device0" --count 13
 t_restore=$(now_us)
 mv "$WORK/away" "$SYS/iio:device1"
-# B1 back: ten of its samples, and an OK HEALTH stamped 0.5 s after the restore.
-wait_log --channel BARO --contains "iio:device1" --after "$t_restore" --count 10
-wait_log --source ips-baro --state 0 --after $((t_restore + 500000))
+# B1 back: an OK HEALTH and ten of its samples, stamped 0.5 s after the restore.
+wait_log --source ips-baro --state 0 --channel BARO --contains "iio:device1" --count 10 \
+  --after $((t_restore + 500000))
 t_end=$(now_us)
 stop $drv ips-baro
 logger_sync "$WORK/baro.lcm"
