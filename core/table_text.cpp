@@ -567,6 +567,9 @@ TableReader::Kind TableReader::feed(std::string_view line) {
     } else {
       data = looks_like_data(t, sep) || preamble_ >= static_cast<int64_t>(
                                                          options_.max_preamble_lines);
+      // A given separator that is wrong for the file: its data lines are still data (to be
+      // rejected, from the first one, with a hint), not a preamble to skip.
+      if (!data && options_.separator) data = looks_like_data(t, detect_separator(t));
     }
     if (!data) {
       if (preamble_ == 0) first_preamble_ = excerpt(t, 80);

@@ -155,7 +155,7 @@ echo "ok: published on the bus"
 
 # --- nothing silent ------------------------------------------------------------------------
 printf '%s\n' "967128;973004;26525" "966294;972795;26525" "966300;972850;26530" >semicolon.log
-expect_import_error "semicolon.log: 0 messages from 3 lines; no line looks like data (the first reads '967128;973004;26525'); looks semicolon-separated: try --separator ;" \
+expect_import_error "semicolon.log: 0 messages from 3 lines; line 1 '967128;973004;26525': 1 fields, expected 3 (mpl.p,p,t) (columns mpl.p,p,t); looks semicolon-separated: try --separator ;" \
   "$baro" --file semicolon.log --columns mpl,p,t --units 0.001hPa,0.001hPa,0.001degC --rate 10 \
   --separator , --out x.lcm
 expect_import_error "semicolon.log: 0 messages from 3 lines; line 1 '967128;973004;26525': 1 fields, expected 3 (mpl.p,p,t) (columns mpl.p,p,t); looks semicolon-separated: try --separator ;" \

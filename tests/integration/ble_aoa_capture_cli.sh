@@ -132,7 +132,7 @@ check_dump raw.lcm want_raw.txt "whole +UUDF lines"
 
 # --- nothing silent ------------------------------------------------------------------------------
 tr ',' ';' <a1.csv >semi.csv
-expect_import_error "semi.csv: 0 messages from 4 lines; no line looks like data (the first reads 'Timestamp;Tag;RSSI;Azimuth;Elevation;Channel;Anchor;Sequence'); looks semicolon-separated: try --separator ;" \
+expect_import_error "semi.csv: 0 messages from 4 lines; line 2 '1742248940700;6C1DEBA3FFAC;-57;-5;-20;20;6C1DEBA09949;100': header 'Timestamp;Tag;RSSI;Azimuth;Elevation;Channel;Anchor;Sequence' lacks a column of t, tag, azimuth, elevation, anchor (or uudf, a +UUDF line): give --columns (columns t,tag,rssi,azimuth,elevation,channel,anchor,seq); looks semicolon-separated: try --separator ;" \
   "$prog" --capture semi.csv --separator , --out semi.lcm
 head -c 3000 /dev/urandom | tr -c 'a-z\n' 'x' >garbage.csv
 set +e

@@ -91,7 +91,7 @@ grep -qF "times in ms (guessed from the first time's magnitude)" hdr.err || fail
 echo "ok: header names map the columns"
 
 # 4. Nothing silent.
-refuse_import "$steps: 0 messages from 2500 lines; line 65 '376824711104,3,-0.33997664,6.697779,6.9240313': 1 fields, expected at least 5 (t,-,ax,ay,az) (columns t,-,ax,ay,az); looks comma-separated: try --separator ," \
+refuse_import "$steps: 0 messages from 2500 lines; line 1 '376184715063,3,-0.35075054,5.674258,8.480263': 1 fields, expected at least 5 (t,-,ax,ay,az) (columns t,-,ax,ay,az); looks comma-separated: try --separator ," \
   --file "$steps" --columns t,-,ax,ay,az --time-unit ns --separator ';' --out x.lcm
 refuse_import "$steps: 0 messages from 2500 lines; line 1 '376184715063,3,-0.35075054,5.674258,8.480263': time '376184715063' is not a time in s (columns t,-,ax,ay,az); check --time-unit, or give --rate HZ for a file without times" \
   --file "$steps" --columns t,-,ax,ay,az --out x.lcm

@@ -98,9 +98,9 @@ TEST(FileImport, WrongSeparatorGivesTheSeparatorHint) {
   o.read.separator = ';';
   const Imported r = run(o, kOxford);
   EXPECT_EQ(r.verdict,
-            "accelerometer.csv: 0 messages from 3 lines; no line looks like data (the first reads "
-            "'583718602288785,3,-1.829795,2.5267458,9.544153'); looks comma-separated: try "
-            "--separator ,");
+            "accelerometer.csv: 0 messages from 3 lines; line 1 "
+            "'583718602288785,3,-1.829795,2.5267458,9.544153': 1 fields, expected at least 5 "
+            "(t,-,ax,ay,az) (columns t,-,ax,ay,az); looks comma-separated: try --separator ,");
 }
 
 TEST(FileImport, OpenShoeRowsAtARateWithNoTimeColumn) {
