@@ -26,9 +26,11 @@ logger_sync "$WORK/imu.lcm"
   2>"$WORK/driver.err" & drv=$!; pids+=($drv)
 for ((i = 0; i < 1200; i++)); do grep -q "HTTP push on" "$WORK/driver.err" 2>/dev/null && break; sleep 0.05; done
 
-python3 - "$WORK" "$drv" <<'PY' || fail "the sender: $(cat "$WORK/driver.err")"
+python3 - "$WORK" "$drv" "$HERE/.." <<'PY' || fail "the sender: $(cat "$WORK/driver.err")"
 import http.client, json, socket, sys, time
 work, pid = sys.argv[1], int(sys.argv[2])
+sys.path.insert(0, sys.argv[3])
+import health_wait
 udp = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
 times = {}
 def send_udp(text):
@@ -74,6 +76,11 @@ s.sendall(b'POST /data HTTP/1.1\r\nHost: x\r\nContent-Length: 2000000\r\n\r\n')
 reply = s.recv(4096).decode()
 s.close()
 assert reply.startswith('HTTP/1.1 413 Content Too Large\r\n'), reply
+# The 404's report must reach a HEALTH before the probe after the flood puts its own last_error
+# (a loop busy with the flood may publish no HEALTH in between).
+missing = health_wait.wait(f'{work}/imu.lcm', source='ips-phone-imu',
+                           error='HTTP 404 to 127.0.0.1', timeout=60)
+assert missing is None, missing
 
 def rss_kib():
     for line in open(f'/proc/{pid}/status'):
