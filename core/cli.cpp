@@ -25,6 +25,16 @@ void add_common_options(CLI::App& app, CommonOptions& opts, CommonFlags flags) {
     app.add_option("--lcm-url", opts.lcm_url,
                    "LCM URL, e.g. udpm://239.255.76.67:7667?ttl=0 (default: LCM_DEFAULT_URL or "
                    "LCM's own default)");
+    app.add_option("--lcm-queue", opts.lcm_queue,
+                   "messages liblcm may hold per subscription while this process is busy; more "
+                   "are dropped and counted in HEALTH queue_drops (0: no limit)")
+        ->check(CLI::Range(0, 10000000))
+        ->capture_default_str();
+    app.add_option("--lcm-recv-buf", opts.lcm_recv_buf,
+                   "kernel receive buffer (bytes) asked for when the URL has no recv_buf_size; the "
+                   "kernel caps it at net.core.rmem_max (docs/networking.md#loss)")
+        ->check(CLI::Range(0, 1 << 30))
+        ->capture_default_str();
   }
   if (flags.site) {
     app.add_option("--site", opts.site_path,

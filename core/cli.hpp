@@ -7,13 +7,24 @@
 #include <string>
 #include <vector>
 
+#include "core/lcm_url.hpp"
+
 namespace ips {
+
+// Messages liblcm may hold for one subscription while the process is busy (its own default, 30,
+// is a fraction of a second of a lab's traffic and dropped the rest without a word).
+inline constexpr int kDefaultLcmQueue = 20000;
 
 struct CommonOptions {
   std::string lcm_url;    // empty: LCM's default or LCM_DEFAULT_URL
   std::string site_path;  // empty: wait for the first SITE message
   std::string log_level = "info";
   std::vector<std::string> channel_overrides;  // KIND=NAME
+  // Messages liblcm may hold per subscription while the process is busy (--lcm-queue; 0: no
+  // limit) and the kernel receive buffer asked for when the URL does not say (--lcm-recv-buf).
+  // docs/networking.md#loss
+  int lcm_queue = kDefaultLcmQueue;
+  int lcm_recv_buf = kDefaultRecvBufBytes;
 
   // The channel to use for a kind (e.g. "UWB_RANGE"), after --channel overrides.
   std::string channel(const std::string& kind) const;

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <cstdlib>
+#include <optional>
 
 namespace ips {
 
@@ -53,10 +54,54 @@ std::string effective_lcm_url(const std::string& url) {
   return kLcmDefaultUrl;
 }
 
-std::unique_ptr<lcm::LCM> open_lcm(const std::string& url) {
+namespace {
+bool is_udpm(const std::string& url) { return url.rfind("udpm://", 0) == 0; }
+
+// The value of `key` in the URL's query, or nullopt.
+std::optional<std::string> query_value(const std::string& url, const std::string& key) {
+  const size_t q = url.find('?');
+  if (q == std::string::npos) return std::nullopt;
+  size_t pos = q + 1;
+  while (pos <= url.size()) {
+    size_t end = url.find('&', pos);
+    if (end == std::string::npos) end = url.size();
+    const std::string item = url.substr(pos, end - pos);
+    const size_t eq = item.find('=');
+    if (item.substr(0, eq) == key) return eq == std::string::npos ? "" : item.substr(eq + 1);
+    pos = end + 1;
+  }
+  return std::nullopt;
+}
+}  // namespace
+
+std::string lcm_url_with_recv_buf(const std::string& url, int recv_buf_bytes) {
+  if (recv_buf_bytes <= 0 || !is_udpm(url) || query_value(url, "recv_buf_size")) return url;
+  const char sep = url.find('?') == std::string::npos ? '?' : '&';
+  return url + sep + "recv_buf_size=" + std::to_string(recv_buf_bytes);
+}
+
+int lcm_url_recv_buf(const std::string& url) {
+  if (!is_udpm(url)) return 0;
+  const auto v = query_value(url, "recv_buf_size");
+  if (!v) return 0;
+  return static_cast<int>(std::clamp(std::strtol(v->c_str(), nullptr, 0), 0L, long{INT32_MAX}));
+}
+
+uint16_t lcm_url_udpm_port(const std::string& url) {
+  if (!is_udpm(url)) return 0;
+  const size_t q = url.find('?');
+  const std::string target = url.substr(7, q == std::string::npos ? q : q - 7);
+  const size_t colon = target.rfind(':');
+  if (colon == std::string::npos) return 7667;
+  const long port = std::strtol(target.c_str() + colon + 1, nullptr, 10);
+  return port > 0 && port <= 65535 ? static_cast<uint16_t>(port) : 7667;
+}
+
+std::unique_ptr<lcm::LCM> open_lcm(const std::string& url, int recv_buf_bytes) {
   const std::string eff = effective_lcm_url(url);
+  const std::string opened = lcm_url_with_recv_buf(eff, recv_buf_bytes);
   std::unique_ptr<lcm::LCM> lc;
-  std::string lcm_said = capture_stderr([&] { lc = std::make_unique<lcm::LCM>(eff); });
+  std::string lcm_said = capture_stderr([&] { lc = std::make_unique<lcm::LCM>(opened); });
   if (!lc->good()) {
     std::string hint;
     if (lcm_said.find("multicast route") != std::string::npos) {

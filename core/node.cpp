@@ -1,8 +1,12 @@
 #include "core/node.hpp"
 
+#include <ips/ble_aoa_t.hpp>
+#include <ips/uwb_range_t.hpp>
+#include <ips/uwb_rx_t.hpp>
 #include <poll.h>
 #include <signal.h>
 #include <sys/signalfd.h>
+#include <sys/socket.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -17,6 +21,13 @@
 namespace ips {
 
 namespace {
+int64_t big_endian_i64(const void* data) {
+  const auto* b = static_cast<const uint8_t*>(data);
+  uint64_t v = 0;
+  for (int i = 0; i < 8; ++i) v = (v << 8) | b[i];
+  return static_cast<int64_t>(v);
+}
+
 std::string host_name() {
   char buf[256] = {0};
   if (gethostname(buf, sizeof buf - 1) != 0) return "unknown";
@@ -27,7 +38,7 @@ std::string host_name() {
 Node::Node(std::string name, const CommonOptions& opts)
     : name_(std::move(name)),
       opts_(opts),
-      lcm_(open_lcm(opts.lcm_url)),
+      lcm_(open_lcm(opts.lcm_url, opts.lcm_recv_buf)),
       health_channel_(opts.channel(channel::kHealth)),
       host_(host_name()),
       start_time_(std::chrono::steady_clock::now()) {
@@ -54,6 +65,7 @@ Node::Node(std::string name, const CommonOptions& opts)
                        "' cannot receive (its multicast self-test got nothing back); see "
                        "docs/networking.md");
   }
+  measure_recv_buf();
   // A closed pipe (e.g. `| head`) must not kill the process mid-write.
   signal(SIGPIPE, SIG_IGN);
   add_timer(1.0, [this] { publish_health(); });
@@ -77,9 +89,12 @@ void Node::publish_raw(const std::string& channel, const void* data, size_t size
 void Node::subscribe_raw(const std::string& channel, RawHandler handler) {
   // Every message that reaches us is counted, decodable or not. An exception from a handler
   // must not unwind through liblcm's C dispatch: it is counted and reported instead.
-  handlers_.push_back([this, h = std::move(handler)](const lcm::ReceiveBuffer* rbuf,
-                                                     const std::string& chan) {
+  QueueWatch* watch = opts_.lcm_queue > 0 ? &queue_watches_.emplace_back() : nullptr;
+  handlers_.push_back([this, watch, h = std::move(handler)](const lcm::ReceiveBuffer* rbuf,
+                                                            const std::string& chan) {
     ++counters_.msgs_in;
+    if (watch) ++watch->delivered;
+    count_sequence(rbuf);
     try {
       h(rbuf, chan);
     } catch (const std::exception& e) {
@@ -95,12 +110,92 @@ void Node::subscribe_raw(const std::string& channel, RawHandler handler) {
       &handlers_.back());
   if (!sub) {
     handlers_.pop_back();
+    if (watch) queue_watches_.pop_back();
     throw LcmOpenError("cannot subscribe to channel '" + channel + "'");
   }
   // liblcm keeps 30 messages per subscription by default and drops the rest without a word when
   // the process falls behind (a loaded machine, a burst): replayed captures lost up to 14 % of
-  // their ranges that way. kSubscriptionQueueMessages holds several seconds of a busy lab.
-  sub->setQueueCapacity(kSubscriptionQueueMessages);
+  // their ranges that way. --lcm-queue (20000 by default) holds several seconds of a busy lab;
+  // 0 lifts the limit (liblcm's own meaning of a capacity <= 0).
+  sub->setQueueCapacity(opts_.lcm_queue);
+  if (!watch) return;
+  // The shadow: same channels, a queue four times longer, counting only. liblcm enqueues a
+  // message when any subscription has room and hands it to each that had, so while the shadow
+  // has room every message the real queue dropped is seen here and not there.
+  lcm::Subscription* shadow = lcm_->subscribeFunction(
+      channel, +[](const lcm::ReceiveBuffer*, const std::string&, QueueWatch* w) { ++w->seen; },
+      watch);
+  if (shadow)
+    shadow->setQueueCapacity(opts_.lcm_queue > INT32_MAX / 4 ? 0 : opts_.lcm_queue * 4);
+}
+
+void Node::count_sequence(const lcm::ReceiveBuffer* rbuf) {
+  // The three numbered kinds, told apart by their fingerprint (any channel, decoded or not by
+  // the subscriber). Keys: who numbers the sequence (docs/networking.md#loss).
+  if (rbuf->data_size < 8) return;
+  const int64_t hash = big_endian_i64(rbuf->data);
+  const auto size = static_cast<size_t>(rbuf->data_size);
+  if (hash == uwb_range_t::getHash()) {
+    uwb_range_t m;
+    if (decode_message(m, rbuf->data, size))
+      seq_loss_.observe("uwb_range\x1f" + m.source + '\x1f' + m.tag_id + '\x1f' + m.anchor_id,
+                        m.seq);
+  } else if (hash == uwb_rx_t::getHash()) {
+    uwb_rx_t m;
+    if (decode_message(m, rbuf->data, size))
+      seq_loss_.observe("uwb_rx\x1f" + m.source + '\x1f' + m.anchor_id + '\x1f' + m.sender_id,
+                        m.seq);
+  } else if (hash == ble_aoa_t::getHash()) {
+    ble_aoa_t m;
+    if (decode_message(m, rbuf->data, size))
+      seq_loss_.observe("ble_aoa\x1f" + m.source + '\x1f' + m.anchor_id, m.seq);
+  }
+}
+
+void Node::measure_recv_buf() {
+  const std::string url = lcm_url_with_recv_buf(effective_lcm_url(opts_.lcm_url), opts_.lcm_recv_buf);
+  recv_buf_requested_ = lcm_url_recv_buf(url);
+  const uint16_t port = lcm_url_udpm_port(url);
+  if (port == 0) return;  // not udpm: no socket of ours
+  const int fd = own_udp_socket_bound_to(port);
+  int granted = 0;
+  socklen_t len = sizeof granted;
+  if (fd < 0 || getsockopt(fd, SOL_SOCKET, SO_RCVBUF, &granted, &len) != 0) return;
+  recv_buf_bytes_ = granted;
+  // Linux doubles what it grants (bookkeeping overhead) and caps the request at
+  // net.core.rmem_max: less than twice the request means it was capped.
+  if (recv_buf_requested_ > 0 && int64_t{granted} < 2 * int64_t{recv_buf_requested_}) {
+    spdlog::warn(
+        "{}: the LCM receive buffer is {} bytes, not the {} asked for: net.core.rmem_max caps it, "
+        "and messages will be lost under load. As root: sysctl -w net.core.rmem_max={} (and a "
+        "file in /etc/sysctl.d/ to keep it; docs/networking.md#loss)",
+        name_, granted / 2, recv_buf_requested_, recv_buf_requested_);
+  }
+}
+
+BusLoss Node::loss() {
+  BusLoss l;
+  l.kernel_drops = kernel_drops_.update();
+  for (const auto& w : queue_watches_) l.queue_drops += std::max<int64_t>(0, w.seen - w.delivered);
+  l.seq = seq_loss_.counts();
+  l.recv_buf_bytes = recv_buf_bytes_;
+  l.recv_buf_requested = recv_buf_requested_;
+  l.lcm_queue = opts_.lcm_queue;
+  return l;
+}
+
+std::string BusLoss::json() const {
+  return "{\"kernel_drops\": " + std::to_string(kernel_drops) +
+         ", \"queue_drops\": " + std::to_string(queue_drops) +
+         ", \"lost\": " + std::to_string(kernel_drops + queue_drops) +
+         ", \"seq_lost\": " + std::to_string(seq.lost) +
+         ", \"seq_received\": " + std::to_string(seq.received) +
+         ", \"seq_unknown\": " + std::to_string(seq.unknown) +
+         ", \"seq_late\": " + std::to_string(seq.late) +
+         ", \"seq_restarts\": " + std::to_string(seq.restarts) +
+         ", \"recv_buf_bytes\": " + std::to_string(recv_buf_bytes) +
+         ", \"recv_buf_requested\": " + std::to_string(recv_buf_requested) +
+         ", \"lcm_queue\": " + std::to_string(lcm_queue) + "}";
 }
 
 void Node::add_timer(double period_s, std::function<void()> fn) {
@@ -232,6 +327,16 @@ void Node::publish_health() {
     state_ = health_t::STATE_OK;
     degraded_by_error_ = false;
   }
+  const BusLoss loss = this->loss();
+  // Loss on the way in is an error worth seeing (degraded for a while), not just a number.
+  if (const int64_t bus_lost = loss.kernel_drops + loss.queue_drops; bus_lost > reported_bus_loss_) {
+    report_error(std::to_string(bus_lost - reported_bus_loss_) + " messages lost on the way in (" +
+                 std::to_string(loss.kernel_drops) + " dropped by the kernel: receive buffer " +
+                 std::to_string(loss.recv_buf_bytes) + " bytes; " +
+                 std::to_string(loss.queue_drops) + " by the LCM queue of " +
+                 std::to_string(opts_.lcm_queue) + "; docs/networking.md#loss)");
+    reported_bus_loss_ = bus_lost;
+  }
   health_t h;
   h.utime = wall_utime_now();
   h.source = name_;
@@ -243,6 +348,10 @@ void Node::publish_health() {
   h.parse_errors = counters_.parse_errors;
   h.drops = counters_.drops;
   h.last_error = last_error_;
+  h.kernel_drops = loss.kernel_drops;
+  h.queue_drops = loss.queue_drops;
+  h.seq_lost = loss.seq.lost;
+  h.recv_buf_bytes = loss.recv_buf_bytes;
   h.uptime_us = std::chrono::duration_cast<std::chrono::microseconds>(
                     std::chrono::steady_clock::now() - start_time_)
                     .count();

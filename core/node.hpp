@@ -19,6 +19,8 @@
 
 #include "core/cli.hpp"
 #include "core/logging.hpp"
+#include "core/seq_loss.hpp"
+#include "core/socket_drops.hpp"
 #include "core/time.hpp"
 
 namespace ips {
@@ -28,6 +30,18 @@ struct NodeCounters {
   int64_t msgs_out = 0;
   int64_t parse_errors = 0;
   int64_t drops = 0;
+};
+
+// What a process lost on the way in since it started (HEALTH carries it; docs/networking.md#loss).
+struct BusLoss {
+  int64_t kernel_drops = 0;   // datagrams the kernel dropped on our UDP sockets (buffer full)
+  int64_t queue_drops = 0;    // messages liblcm's subscription queues dropped (as far as seen)
+  SeqLossCounts seq;          // senders' sequence numbers (uwb_range_t, uwb_rx_t, ble_aoa_t)
+  int32_t recv_buf_bytes = -1;       // the LCM receive socket's SO_RCVBUF as granted; -1 unknown
+  int32_t recv_buf_requested = 0;    // what the URL asked for (0: the kernel's default)
+  int lcm_queue = 0;                 // --lcm-queue
+  // A JSON object of the above (ips-record's sidecar "loss").
+  std::string json() const;
 };
 
 // Decodes an LCM message from bytes off the bus; false (never an exception) when the bytes are not
@@ -43,9 +57,8 @@ bool decode_message(Msg& msg, const void* data, size_t size) {
   }
 }
 
-// Messages liblcm may hold for one subscription while the process is busy (its default, 30, is
-// a fraction of a second of a lab's traffic).
-inline constexpr int kSubscriptionQueueMessages = 20000;
+// The default of --lcm-queue (core/cli.hpp).
+inline constexpr int kSubscriptionQueueMessages = kDefaultLcmQueue;
 
 class Node {
  public:
@@ -104,6 +117,8 @@ class Node {
   int stop_signal() const { return stop_signal_; }
 
   NodeCounters& counters() { return counters_; }
+  // Reads the kernel's counters now and returns all loss figures.
+  BusLoss loss();
   // Reports an error in health_t and logs it at a rate limit. A process in STATE_OK becomes
   // STATE_DEGRADED, and returns to STATE_OK once no error has been reported for
   // degraded_hold_s (last_error keeps the text). A state set with set_state() is kept as set.
@@ -134,6 +149,15 @@ class Node {
     std::function<void()> fn;
   };
   void dispatch_timers();
+  void count_sequence(const lcm::ReceiveBuffer* rbuf);
+  void measure_recv_buf();
+  // One per subscription: messages on its channels that reached us (a shadow subscription with
+  // a longer queue sees them) against those liblcm handed to it; the difference is what its
+  // queue dropped (liblcm 1.3 counts nothing itself).
+  struct QueueWatch {
+    int64_t seen = 0;
+    int64_t delivered = 0;
+  };
 
   std::string name_;
   CommonOptions opts_;
@@ -148,6 +172,12 @@ class Node {
   std::vector<Watch> watches_;
   std::vector<pollfd> pollfds_;
   NodeCounters counters_;
+  std::list<QueueWatch> queue_watches_;
+  KernelDropCounter kernel_drops_;
+  SeqLossCounter seq_loss_;
+  int64_t reported_bus_loss_ = 0;
+  int32_t recv_buf_bytes_ = -1;
+  int32_t recv_buf_requested_ = 0;
   int signal_fd_ = -1;
   int lcm_fd_ = -1;
   sigset_t old_sigmask_;

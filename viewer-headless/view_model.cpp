@@ -499,6 +499,14 @@ std::string ViewModel::json(utime_t now, bool with_trails) const {
     s += std::to_string(h.parse_errors) + ',';
     key(s, "drops");
     s += std::to_string(h.drops) + ',';
+    key(s, "kernel_drops");
+    s += std::to_string(h.kernel_drops) + ',';
+    key(s, "queue_drops");
+    s += std::to_string(h.queue_drops) + ',';
+    key(s, "seq_lost");
+    s += std::to_string(h.seq_lost) + ',';
+    key(s, "recv_buf_bytes");
+    s += std::to_string(h.recv_buf_bytes) + ',';
     key(s, "last_error");
     s += json_string(h.last_error) + ',';
     key(s, "uptime_s");

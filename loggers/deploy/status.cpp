@@ -30,6 +30,9 @@ StatusRow row_of(const std::string& host, const std::string& process, const Hear
   r.msgs_in = h.health.msgs_in;
   r.msgs_out = h.health.msgs_out;
   r.drops = h.health.drops;
+  r.kernel_drops = h.health.kernel_drops;
+  r.queue_drops = h.health.queue_drops;
+  r.seq_lost = h.health.seq_lost;
   r.last_error = h.health.last_error;
   return r;
 }
@@ -120,13 +123,14 @@ std::string format_status(const StatusReport& r) {
     if (row.host != host || s.empty()) {
       host = row.host;
       s += (s.empty() ? "" : "\n") + ("host " + printable(host)) + "\n";
-      std::snprintf(line, sizeof line, "  %-16s %-22s %8s %-10s %9s %7s %10s %10s %7s  %s\n",
-                    "process", "program", "pid", "state", "uptime s", "age s", "in", "out",
-                    "drops", "last error");
+      std::snprintf(line, sizeof line,
+                    "  %-16s %-22s %8s %-10s %9s %7s %10s %10s %7s %8s %8s  %s\n", "process",
+                    "program", "pid", "state", "uptime s", "age s", "in", "out", "drops",
+                    "bus lost", "seq lost", "last error");
       s += line;
     }
     const bool heard = row.pid != 0;
-    std::snprintf(line, sizeof line, "  %-16s %-22s %8s %-10s %9s %7s %10s %10s %7s  %s\n",
+    std::snprintf(line, sizeof line, "  %-16s %-22s %8s %-10s %9s %7s %10s %10s %7s %8s %8s  %s\n",
                   row.process.empty() ? "-" : row.process.c_str(),
                   printable(row.program).substr(0, 22).c_str(),
                   heard ? std::to_string(row.pid).c_str() : "-", row.state.c_str(),
@@ -135,6 +139,8 @@ std::string format_status(const StatusReport& r) {
                   heard ? std::to_string(row.msgs_in).c_str() : "-",
                   heard ? std::to_string(row.msgs_out).c_str() : "-",
                   heard ? std::to_string(row.drops).c_str() : "-",
+                  heard ? std::to_string(row.kernel_drops + row.queue_drops).c_str() : "-",
+                  heard ? std::to_string(row.seq_lost).c_str() : "-",
                   printable(row.last_error).substr(0, 160).c_str());
     s += line;
   }
@@ -158,7 +164,10 @@ std::string status_json(const StatusReport& r) {
          ",\"state\":" + json_quote(row.state) + ",\"age_s\":" + fixed(row.age_s, 3) +
          ",\"uptime_s\":" + fixed(row.uptime_s, 3) + ",\"msgs_in\":" +
          std::to_string(row.msgs_in) + ",\"msgs_out\":" + std::to_string(row.msgs_out) +
-         ",\"drops\":" + std::to_string(row.drops) + ",\"last_error\":" +
+         ",\"drops\":" + std::to_string(row.drops) +
+         ",\"kernel_drops\":" + std::to_string(row.kernel_drops) +
+         ",\"queue_drops\":" + std::to_string(row.queue_drops) +
+         ",\"seq_lost\":" + std::to_string(row.seq_lost) + ",\"last_error\":" +
          json_quote(row.last_error) + "}";
   }
   return s + "]}";

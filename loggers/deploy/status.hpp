@@ -12,7 +12,7 @@
 namespace ips::deploy {
 
 struct Heard {
-  health_t health;
+  health_t health{};
   utime_t host_utime = 0;  // when its latest HEALTH arrived
 };
 
@@ -27,6 +27,8 @@ struct StatusRow {
   double age_s = 0;  // since its last HEALTH
   double uptime_s = 0;
   int64_t msgs_in = 0, msgs_out = 0, drops = 0;
+  // Lost on the way in (HEALTH kernel_drops + queue_drops) and missing by sequence numbers.
+  int64_t kernel_drops = 0, queue_drops = 0, seq_lost = 0;
   std::string last_error;
 };
 

@@ -137,7 +137,11 @@ void fields(const health_t& m, Fields& f) {
        {"parse_errors", m.parse_errors},
        {"drops", m.drops},
        {"last_error", m.last_error},
-       {"uptime_us", m.uptime_us}};
+       {"uptime_us", m.uptime_us},
+       {"kernel_drops", m.kernel_drops},
+       {"queue_drops", m.queue_drops},
+       {"seq_lost", m.seq_lost},
+       {"recv_buf_bytes", int64_t{m.recv_buf_bytes}}};
 }
 
 // The parts of site_t, should one ever be published on its own.

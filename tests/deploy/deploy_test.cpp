@@ -760,6 +760,9 @@ std::vector<Heard> lab_heard() {
   v.back().health.msgs_in = 700;
   v.back().health.msgs_out = 70;
   v.back().health.drops = 2;
+  v.back().health.kernel_drops = 30;
+  v.back().health.queue_drops = 4;
+  v.back().health.seq_lost = 7;
   v.push_back(heard("b", "ips-deploy", 300, 0.8));
   v.push_back(heard("c", "ips-view", 400, 1.0));
   return v;
@@ -790,6 +793,11 @@ TEST(CompareStatus, MatchesHeardHealthToTheDeployment) {
   EXPECT_EQ(r.rows[1].msgs_in, 700);
   EXPECT_EQ(r.rows[1].msgs_out, 70);
   EXPECT_EQ(r.rows[1].drops, 2);
+  EXPECT_EQ(r.rows[1].kernel_drops, 30);
+  EXPECT_EQ(r.rows[1].queue_drops, 4);
+  EXPECT_EQ(r.rows[1].seq_lost, 7);
+  EXPECT_THAT(status_json(r), HasSubstr("\"kernel_drops\":30,\"queue_drops\":4,\"seq_lost\":7"));
+  EXPECT_THAT(format_status(r), testing::ContainsRegex("ips-uwb-twr +201 .* 700 +70 +2 +34 +7 "));
   EXPECT_EQ(r.rows[1].last_error, "");
   for (const StatusRow& row : r.rows) EXPECT_NE(row.pid, 200);
 
@@ -868,7 +876,7 @@ TEST(CompareStatus, ProcessWithoutHealthIsMissing) {
   ASSERT_NE(at, std::string::npos);
   const size_t begin = text.rfind('\n', at) + 1;
   EXPECT_THAT(words(text.substr(begin, text.find('\n', at) - begin)),
-              ElementsAre("sim", "ips-sim", "-", "MISSING", "-", "-", "-", "-", "-"));
+              ElementsAre("sim", "ips-sim", "-", "MISSING", "-", "-", "-", "-", "-", "-", "-"));
 
   const std::string json = status_json(r);
   EXPECT_THAT(json, HasSubstr("\"ok\":false"));

@@ -41,7 +41,8 @@ def health(data):
     return dict(utime=r.take('q'), source=r.string(), host=r.string(), pid=r.take('i'),
                 state=r.take('b'), msgs_in=r.take('q'), msgs_out=r.take('q'),
                 parse_errors=r.take('q'), drops=r.take('q'), last_error=r.string(),
-                uptime_us=r.take('q'))
+                uptime_us=r.take('q'), kernel_drops=r.take('q'), queue_drops=r.take('q'),
+                seq_lost=r.take('q'), recv_buf_bytes=r.take('i'))
 
 
 def baro(data):

@@ -77,6 +77,10 @@
       cell(tr, String(p.msgs_out), 'num');
       cell(tr, String(p.parse_errors), 'num');
       cell(tr, String(p.drops), 'num');
+      cell(tr, String(p.kernel_drops + p.queue_drops), 'num').title =
+          p.kernel_drops + ' by the kernel (receive buffer ' + p.recv_buf_bytes + ' bytes), ' +
+          p.queue_drops + ' by the LCM queue';
+      cell(tr, String(p.seq_lost), 'num');
       cell(tr, fixed(p.age_s, 1), 'num');
       cell(tr, p.last_error, 'error');
       return tr;
