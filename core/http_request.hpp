@@ -44,6 +44,8 @@ class HttpRequestParser {
   const std::string& error_reason() const { return error_reason_; }
   // True while a request has begun but not ended (bytes held).
   bool in_progress() const { return !head_.empty() || in_body_; }
+  // True while the head is complete and the body is arriving.
+  bool in_body() const { return in_body_; }
   // True once after a head with "Expect: 100-continue" (curl sends it for bodies over 1 KiB and
   // waits for "100 Continue" before the body); the caller answers it.
   bool take_continue() {

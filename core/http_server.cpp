@@ -2,6 +2,7 @@
 
 #include <arpa/inet.h>
 #include <netinet/in.h>
+#include <sys/ioctl.h>
 #include <sys/socket.h>
 #include <unistd.h>
 
@@ -9,6 +10,7 @@
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
+#include <map>
 #include <set>
 #include <vector>
 
@@ -19,6 +21,12 @@ namespace ips::http {
 
 namespace {
 constexpr size_t kReadChunk = 16384;
+// The kernel's queue of connections not yet accepted (capped by net.core.somaxconn): a burst of
+// connections from a flood must not fill it, or a client's handshake waits for a retransmission
+// (a second or more).
+constexpr int kListenBacklog = 1024;
+// Connections accepted per readiness event, to let the loop go round under a flood.
+constexpr int kMaxAcceptsPerEvent = 64;
 // Reads per readiness event: a client that never stops sending still lets the loop go round.
 constexpr int kMaxReadsPerEvent = 4;
 // A connection's output buffer keeps up to this much capacity between responses.
@@ -63,6 +71,54 @@ std::string event_text(std::string_view name, std::string_view data) {
 }
 }  // namespace
 
+std::string stats_text(const HttpServerStats& s) {
+  return std::to_string(s.accepted) + " accepted, " + std::to_string(s.refused) +
+         " refused (no slot), " + std::to_string(s.evicted) + " evicted, " +
+         std::to_string(s.header_timeouts) + " header timeouts, " +
+         std::to_string(s.request_timeouts) + " request timeouts";
+}
+
+SlotDecision decide_slot(const std::vector<SlotView>& conns, std::string_view peer,
+                         size_t max_total, size_t max_per_peer,
+                         const std::function<bool(size_t)>& has_unread) {
+  if (max_per_peer == 0 || max_per_peer > max_total) max_per_peer = max_total;
+  std::map<std::string_view, size_t> per_peer;
+  for (const SlotView& c : conns) ++per_peer[c.peer];
+  const auto count = [&](std::string_view p) {
+    const auto found = per_peer.find(p);
+    return found == per_peer.end() ? size_t{0} : found->second;
+  };
+  SlotDecision d;
+  const bool own = count(peer) >= max_per_peer;
+  if (!own && conns.size() < max_total) return d;
+  std::vector<size_t> order;
+  for (size_t i = 0; i < conns.size(); ++i)
+    if (conns[i].use != SlotView::Use::kBusy && (!own || conns[i].peer == peer)) order.push_back(i);
+  // The peer holding the most first, then waiting before body, then the longest waiting.
+  std::sort(order.begin(), order.end(), [&](size_t a, size_t b) {
+    const SlotView &x = conns[a], &y = conns[b];
+    const size_t nx = count(x.peer), ny = count(y.peer);
+    if (nx != ny) return nx > ny;
+    if (x.use != y.use) return x.use < y.use;
+    if (x.waiting_s != y.waiting_s) return x.waiting_s > y.waiting_s;
+    return a < b;
+  });
+  const std::string taken = own ? "the " + std::to_string(max_per_peer) + " connections of " +
+                                      std::string(peer) + " are taken"
+                                : "all " + std::to_string(max_total) + " connections are taken";
+  for (size_t i : order) {
+    if (has_unread && has_unread(i)) continue;
+    d.evict = i;
+    d.reason = taken;
+    return d;
+  }
+  d.admit = false;
+  d.reason = "more than " + std::to_string(own ? max_per_peer : max_total) + " connections" +
+             (own ? " from " + std::string(peer) : std::string()) +
+             " (none idle or unfinished to evict)";
+  return d;
+}
+
 HttpServer::HttpServer(Node& node, HttpServerOptions options, Callbacks callbacks)
     : node_(node),
       options_(std::move(options)),
@@ -99,7 +155,7 @@ bool HttpServer::open(std::string& error) {
   sa.sin_port = htons(options_.port);
   inet_pton(AF_INET, options_.addr.c_str(), &sa.sin_addr);
   if (::bind(listen_fd_, reinterpret_cast<const sockaddr*>(&sa), sizeof sa) != 0 ||
-      ::listen(listen_fd_, 16) != 0) {
+      ::listen(listen_fd_, kListenBacklog) != 0) {
     error = "cannot listen on TCP " + options_.addr + ":" + std::to_string(options_.port) + ": " +
             std::strerror(errno);
     ::close(listen_fd_);
@@ -111,8 +167,8 @@ bool HttpServer::open(std::string& error) {
   bound_port_ = ntohs(sa.sin_port);
   node_.watch_fd(listen_fd_, POLLIN, [this](short) { on_accept(); });
   // The timeouts are kept to within a quarter of the shortest.
-  const double shortest =
-      std::min({options_.idle_timeout_s, options_.request_timeout_s, options_.stream_keepalive_s});
+  const double shortest = std::min({options_.header_timeout_s, options_.idle_timeout_s,
+                                    options_.request_timeout_s, options_.stream_keepalive_s});
   std::weak_ptr<bool> alive = alive_;
   node_.add_timer(std::clamp(shortest / 4, 0.01, 0.5), [this, alive] {
     if (auto a = alive.lock(); a && *a) sweep();
@@ -121,7 +177,7 @@ bool HttpServer::open(std::string& error) {
 }
 
 void HttpServer::on_accept() {
-  for (int i = 0; i < 16; ++i) {
+  for (int i = 0; i < kMaxAcceptsPerEvent; ++i) {
     sockaddr_in from{};
     socklen_t len = sizeof from;
     const int fd = ::accept4(listen_fd_, reinterpret_cast<sockaddr*>(&from), &len,
@@ -129,24 +185,80 @@ void HttpServer::on_accept() {
     if (fd < 0) return;
     char text[INET_ADDRSTRLEN] = "?";
     inet_ntop(AF_INET, &from.sin_addr, text, sizeof text);
-    if (conns_.size() >= options_.max_connections) {
+    std::string why;
+    if (!make_room(text, why)) {
       static const std::string busy =
           http_response(503, "application/json", error_body("too many connections"), false);
       [[maybe_unused]] const ssize_t n = ::send(fd, busy.data(), busy.size(), MSG_NOSIGNAL);
       ::close(fd);
-      if (callbacks_.on_refused)
-        callbacks_.on_refused(
-            503, "more than " + std::to_string(options_.max_connections) + " connections", text);
+      ++stats_.refused;
+      if (callbacks_.on_refused) callbacks_.on_refused(503, why, text);
       continue;
     }
+    ++stats_.accepted;
     conns_.emplace_back();
     const ConnIt it = std::prev(conns_.end());
     it->fd = fd;
     it->peer = text;
     it->parser = HttpRequestParser(options_.limits);
-    it->last_activity = it->request_start = it->last_event = Clock::now();
+    it->accepted = it->last_activity = it->request_start = it->last_event = Clock::now();
     watch(it);
   }
+}
+
+bool HttpServer::make_room(const std::string& peer, std::string& why) {
+  const auto now = Clock::now();
+  std::vector<SlotView> views;
+  std::vector<ConnIt> its;
+  views.reserve(conns_.size());
+  its.reserve(conns_.size());
+  for (auto it = conns_.begin(); it != conns_.end(); ++it) {
+    const Conn& c = *it;
+    SlotView v;
+    v.peer = c.peer;
+    Clock::time_point since = c.last_activity;
+    if (c.stream_id != 0 || !c.out.empty() || c.close_after || c.dead) {
+      v.use = SlotView::Use::kBusy;
+    } else if (c.parser.in_body()) {
+      v.use = SlotView::Use::kBody;
+      since = c.request_start;
+    } else {
+      since = !c.answered ? c.accepted : c.parser.in_progress() ? c.request_start : c.last_activity;
+    }
+    v.waiting_s = std::chrono::duration<double>(now - since).count();
+    views.push_back(v);
+    its.push_back(it);
+  }
+  const SlotDecision d = decide_slot(
+      views, peer, options_.max_connections, options_.max_connections_per_peer, [&](size_t i) {
+        int unread = 0;
+        return ::ioctl(its[i]->fd, FIONREAD, &unread) == 0 && unread > 0;
+      });
+  if (!d.admit) {
+    why = d.reason;
+    return false;
+  }
+  if (d.evict != SlotDecision::kNone) {
+    const Conn& c = *its[d.evict];
+    char waited[32];
+    std::snprintf(waited, sizeof waited, "%.1f s", views[d.evict].waiting_s);
+    const std::string what = c.parser.in_body()        ? "its request body incomplete after "
+                             : c.parser.in_progress()  ? "its request head incomplete after "
+                             : !c.answered             ? "no request after "
+                                                       : "idle for ";
+    ++stats_.evicted;
+    cut(its[d.evict], "evicted (" + what + waited + ") for a new connection from " + peer + ": " +
+                          d.reason);
+  }
+  return true;
+}
+
+void HttpServer::cut(ConnIt it, const std::string& why) {
+  Conn& c = *it;
+  if (callbacks_.on_refused) callbacks_.on_refused(408, why, c.peer);
+  c.out += http_response(408, "application/json", error_body(why), false);
+  flush(c);
+  close_soon(it);
 }
 
 void HttpServer::watch(ConnIt it) {
@@ -296,6 +408,7 @@ void HttpServer::answer(ConnIt it) {
   }
   if (c.parser.take_continue()) c.out += "HTTP/1.1 100 Continue\r\n\r\n";
   if (c.parser.state() != State::kRequest) return;
+  c.answered = true;
   const HttpRequest& r = c.parser.request();
   const bool head = r.method == "HEAD";
   const auto found = routes_.find(r.target);
@@ -418,24 +531,32 @@ size_t HttpServer::stream_count(const std::string& path) const {
 
 void HttpServer::sweep() {
   const auto now = Clock::now();
+  const auto header = std::chrono::duration<double>(options_.header_timeout_s);
   const auto idle = std::chrono::duration<double>(options_.idle_timeout_s);
   const auto slow = std::chrono::duration<double>(options_.request_timeout_s);
   const auto keepalive = std::chrono::duration<double>(options_.stream_keepalive_s);
   for (auto it = conns_.begin(); it != conns_.end();) {
     const auto next = std::next(it);
     Conn& c = *it;
+    // The first head is due from the accept, a later one from its first byte.
+    const bool awaiting_head =
+        c.out.empty() && !c.close_after && !c.parser.in_body() &&
+        (!c.answered || c.parser.in_progress());
+    const auto head_start = !c.answered ? c.accepted : c.request_start;
     if (c.stream_id != 0) {
       // A comment line (ignored by EventSource): keeps idle streams open through proxies, and a
       // dead peer shows as a send error or a growing backlog.
       if (now - c.last_event > keepalive) queue_event(it, ": keepalive\n\n");
+    } else if (awaiting_head && now - head_start > header) {
+      ++stats_.header_timeouts;
+      cut(it, std::string(c.parser.in_progress() ? "request head incomplete"
+                                                 : "no request") +
+                  " after " + seconds_text(options_.header_timeout_s));
     } else if (c.parser.in_progress() && now - c.request_start > slow) {
-      const std::string why =
-          "request not complete after " + seconds_text(options_.request_timeout_s);
-      if (callbacks_.on_refused) callbacks_.on_refused(408, why, c.peer);
-      c.out += http_response(408, "application/json", error_body(why), false);
-      flush(c);
-      close(it);
+      ++stats_.request_timeouts;
+      cut(it, "request not complete after " + seconds_text(options_.request_timeout_s));
     } else if (!c.parser.in_progress() && now - c.last_activity > idle) {
+      ++stats_.idle_closed;
       close(it);
     }
     it = next;

@@ -6,13 +6,29 @@
 // http_request.hpp refuses gets its status (400, 411, 413, 431, 501, ...) and the connection is
 // closed.
 //
-// Memory is bounded whatever the clients do: at most max_connections (more are answered 503 and
-// closed at once). An ordinary connection holds at most one read chunk (16 KiB) of bytes not yet
-// parsed, one request head and body within the limits, and one response: the next request is read
-// only once the previous response has been taken by the client, however large it is. A
-// connection silent for idle_timeout_s (reading nothing of a response counts as silent), or whose
-// request takes longer than request_timeout_s to arrive (a slow client), is closed (408 for the
-// latter). An event stream holds at most max_stream_backlog_bytes of events its client has not
+// Memory is bounded whatever the clients do: at most max_connections, at most
+// max_connections_per_peer of them from one IPv4 address. An ordinary connection holds at most one
+// read chunk (16 KiB) of bytes not yet parsed, one request head and body within the limits, and
+// one response: the next request is read only once the previous response has been taken by the
+// client, however large it is.
+//
+// Slots cannot be starved by clients that connect and send nothing, or too little (slowloris):
+//  - a request head must be complete within header_timeout_s of the connection's accept (or of the
+//    request's first byte, on a kept-alive connection), else 408 and closed (a byte a second does
+//    not keep it open);
+//  - a whole request (head and body) within request_timeout_s of its first byte, else 408;
+//  - a kept-alive connection silent for idle_timeout_s (reading nothing of a response counts as
+//    silent) is closed;
+//  - when a new connection finds no free slot (all taken, or its peer's all taken), it takes the
+//    slot of an idle or unfinished connection (evicted with a 408): of the peer holding the most
+//    connections, one idle or whose head is incomplete before one whose body is arriving, the
+//    longest waiting first. One whose bytes are waiting to be read is not evicted, nor one being
+//    answered, nor an event stream: only when none is left is the new connection refused (503).
+// So a flood from a few addresses churns through its own slots; a client from another address
+// gets a slot at once (one sharing its address, e.g. behind the same NAT, shares its fate).
+// stats() counts what was refused, evicted and timed out.
+//
+// An event stream holds at most max_stream_backlog_bytes of events its client has not
 // taken, plus one event: an event sent when that much is waiting closes the stream instead
 // (counted in streams_dropped()). Streams are exempt from the idle timeout; a ": keepalive"
 // comment every stream_keepalive_s keeps proxies from closing them and finds dead peers.
@@ -24,6 +40,7 @@
 #include <memory>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "core/http_request.hpp"
 #include "core/time.hpp"
@@ -39,11 +56,50 @@ struct HttpServerOptions {
   uint16_t port = 8000;  // 0: any free port (bound_port() says which)
   HttpLimits limits;
   size_t max_connections = 8;
+  size_t max_connections_per_peer = 4;  // from one IPv4 address; 0: max_connections
+  double header_timeout_s = 2.0;        // from accept (or a request's first byte) to a whole head
   double idle_timeout_s = 30.0;
   double request_timeout_s = 10.0;
   size_t max_stream_backlog_bytes = 1 << 20;  // an SSE client that falls further behind is closed
   double stream_keepalive_s = 15.0;           // ": keepalive\n\n" comment on idle streams
 };
+
+// Connections: counted since open().
+struct HttpServerStats {
+  int64_t accepted = 0;
+  int64_t refused = 0;           // 503 at once: no slot free and none that could be freed
+  int64_t evicted = 0;           // idle or unfinished, closed (408) to give a new one its slot
+  int64_t header_timeouts = 0;   // no whole request head within header_timeout_s (408)
+  int64_t request_timeouts = 0;  // no whole request within request_timeout_s (408)
+  int64_t idle_closed = 0;       // kept alive and silent for idle_timeout_s
+};
+// "N accepted, N refused (no slot), N evicted, N header timeouts, N request timeouts".
+std::string stats_text(const HttpServerStats& s);
+
+// The slot policy (pure, for testing): what it knows of each open connection.
+struct SlotView {
+  enum class Use {
+    kWaiting,  // idle between requests, or nothing / part of a head received: evictable first
+    kBody,     // head complete, body arriving: evictable after every kWaiting of its peer
+    kBusy,     // being answered, or an event stream: never evicted
+  };
+  std::string_view peer;
+  Use use = Use::kWaiting;
+  double waiting_s = 0;  // kWaiting, kBody: for how long (since the last response or accept,
+                         // or since the request's first byte)
+};
+struct SlotDecision {
+  static constexpr size_t kNone = static_cast<size_t>(-1);
+  bool admit = true;
+  size_t evict = kNone;  // index into the views: close it first
+  std::string reason;    // admit false: why (for the 503); evict: why it was chosen
+};
+// Admits a new connection from `peer` into `conns` (max_total slots, max_per_peer of one peer; 0:
+// max_total), evicting one when there is no free slot (see above). has_unread(i): bytes from
+// connection i are waiting to be read (it is asked of the candidates in order, to skip them).
+SlotDecision decide_slot(const std::vector<SlotView>& conns, std::string_view peer,
+                         size_t max_total, size_t max_per_peer,
+                         const std::function<bool(size_t)>& has_unread = {});
 
 struct HttpReply {
   int status = 200;
@@ -62,9 +118,10 @@ class HttpServer {
   using StreamId = uint64_t;
   struct Callbacks {
     // A request refused before reaching a handler (bad request, no such path (404), a method the
-    // path does not take (405, with an Allow header), too big, too slow, too many connections),
-    // a handler that threw (500), and an event stream closed for falling behind (503): for
-    // counting and reporting.
+    // path does not take (405, with an Allow header), too big), a handler that threw (500), an
+    // event stream closed for falling behind (503), and the connections cut: no request head or
+    // no whole request in time, or evicted for a new one (408), or refused for want of a slot
+    // (503): for counting and reporting.
     std::function<void(int status, const std::string& reason, const std::string& peer)> on_refused;
   };
 
@@ -94,6 +151,7 @@ class HttpServer {
   size_t connections() const { return conns_.size(); }
   // Event streams closed for a backlog over max_stream_backlog_bytes.
   int64_t streams_dropped() const { return streams_dropped_; }
+  const HttpServerStats& stats() const { return stats_; }
 
  private:
   using Clock = std::chrono::steady_clock;
@@ -112,11 +170,16 @@ class HttpServer {
     bool dead = false;         // to be closed when its event handler returns
     StreamId stream_id = 0;    // 0: not an event stream
     std::string stream_path;
-    Clock::time_point last_activity, request_start, last_event;
+    Clock::time_point accepted, last_activity, request_start, last_event;
+    bool answered = false;  // a response has been sent (then last_activity marks the wait)
   };
   using ConnIt = std::list<Conn>::iterator;
 
   void on_accept();
+  // A slot for a new connection from `peer` (evicting one if need be); false: refuse it.
+  bool make_room(const std::string& peer, std::string& why);
+  // 408 with `why`, best effort, then closed.
+  void cut(ConnIt it, const std::string& why);
   void on_event(ConnIt it, short revents);
   // Parses and answers while no response is waiting; false when the connection is to be closed.
   bool serve(ConnIt it);
@@ -145,6 +208,7 @@ class HttpServer {
   std::map<StreamId, ConnIt> streams_;
   StreamId next_stream_id_ = 1;
   int64_t streams_dropped_ = 0;
+  HttpServerStats stats_;
   const Conn* busy_ = nullptr;  // the connection whose event handler is running
   std::shared_ptr<bool> alive_;
 };

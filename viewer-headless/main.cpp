@@ -31,6 +31,7 @@
 
 #include "core/channels.hpp"
 #include "core/cli.hpp"
+#include "core/error_limiter.hpp"
 #include "core/http_server.hpp"
 #include "core/log_input.hpp"
 #include "core/log_reader.hpp"
@@ -79,6 +80,8 @@ struct ServeOptions {
   double speed = 1.0;
   double update_hz = 4.0;
   size_t max_clients = 32;
+  size_t max_clients_per_peer = 8;
+  double header_timeout_s = 2.0;
 };
 
 struct RenderOptions {
@@ -279,14 +282,32 @@ int serve(ips::CommonOptions opts, const ServeOptions& so, const MapOptions& mo)
   ho.addr = so.bind;
   ho.port = static_cast<uint16_t>(so.port);
   ho.max_connections = so.max_clients;
+  ho.max_connections_per_peer = so.max_clients_per_peer;
+  ho.header_timeout_s = so.header_timeout_s;
   ho.limits.max_body_bytes = 4096;  // every route is a GET
   int64_t refused = 0;
-  http::HttpServer server(
+  ips::ErrorLimiter http_limiter;
+  std::unique_ptr<http::HttpServer> server_owner;
+  server_owner = std::make_unique<http::HttpServer>(
       node, ho,
-      {.on_refused = [&](int status, const std::string& reason, const std::string& peer) {
-        ++refused;
-        spdlog::debug("HTTP {} to {}: {}", status, peer, ips::printable(reason));
-      }});
+      http::HttpServer::Callbacks{
+          .on_refused = [&](int status, const std::string& reason, const std::string& peer) {
+            ++refused;
+            spdlog::debug("HTTP {} to {}: {}", status, peer, ips::printable(reason));
+            // Connections cut (408: slow, silent or evicted; 503: no slot) are drops in HEALTH.
+            // One that sent nothing at all is only counted: browsers open spare connections
+            // they may never use.
+            if (status != 408 && status != 503) return;
+            ++node.counters().drops;
+            if (reason.starts_with("no request after")) return;
+            if (auto line = http_limiter.admit(
+                    "http", "HTTP " + std::to_string(status) + " to " + peer + ": " + reason +
+                                " (connections so far: " +
+                                http::stats_text(server_owner->stats()) + ")",
+                    ips::wall_utime_now()))
+              node.report_error(*line);
+          }});
+  http::HttpServer& server = *server_owner;
 
   // The page may load only what ips-view serves: even a string that escaped escaping could not
   // run as a script.
@@ -319,6 +340,11 @@ int serve(ips::CommonOptions opts, const ServeOptions& so, const MapOptions& mo)
                                                                        : opts.lcm_url);
     j += ",\"clients\":" + std::to_string(server.stream_count("/events"));
     j += ",\"http_refused\":" + std::to_string(refused);
+    const http::HttpServerStats& hs = server.stats();
+    j += ",\"http_connections\":{\"accepted\":" + std::to_string(hs.accepted) +
+         ",\"refused\":" + std::to_string(hs.refused) + ",\"evicted\":" +
+         std::to_string(hs.evicted) + ",\"header_timeouts\":" + std::to_string(hs.header_timeouts) +
+         ",\"request_timeouts\":" + std::to_string(hs.request_timeouts) + "}";
     j += ",\"streams_dropped\":" + std::to_string(server.streams_dropped()) + "}";
     return http::HttpReply{200, "application/json", j, data_headers};
   });
@@ -485,8 +511,18 @@ int main(int argc, char** argv) {
   app.add_option("--update-hz", so.update_hz, "live updates sent to each page per second")
       ->check(CLI::Range(0.2, 30.0))
       ->capture_default_str();
-  app.add_option("--max-clients", so.max_clients, "HTTP connections at once (pages and requests)")
+  app.add_option("--max-clients", so.max_clients,
+                 "HTTP connections at once (pages and requests; when all are taken, a new one "
+                 "evicts an idle or unfinished one)")
       ->check(CLI::Range(1, 1024))
+      ->capture_default_str();
+  app.add_option("--max-clients-per-peer", so.max_clients_per_peer,
+                 "HTTP connections at once from one address (0: --max-clients)")
+      ->check(CLI::Range(0, 1024))
+      ->capture_default_str();
+  app.add_option("--header-timeout", so.header_timeout_s,
+                 "seconds from a connection's accept to a whole request head (else 408)")
+      ->check(CLI::Range(0.1, 60.0))
       ->capture_default_str();
 
   RenderOptions ro;

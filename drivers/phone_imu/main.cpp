@@ -154,10 +154,14 @@ class Live {
             {}};
   }
 
-  void on_refused(int status, const std::string& reason, const std::string& peer) {
+  // `connections`: the server's counts (stats_text), told with the connections cut (408, 503).
+  void on_refused(int status, const std::string& reason, const std::string& peer,
+                  const std::string& connections) {
     ++node_.counters().msgs_in;
     const std::string text = "HTTP " + std::to_string(status) + " to " + peer + ": " + reason;
-    if (status == 404 || status == 405 || status == 503)
+    if (status == 408 || status == 503)  // a slow, silent or evicted connection; no slot
+      dropped("http-connection", text + " (connections so far: " + connections + ")", 1);
+    else if (status == 404 || status == 405)
       dropped("http", text, 1);
     else
       bad("http", text);
@@ -209,8 +213,10 @@ int run_live(const ips::CommonOptions& opts, Settings& s) {
     http = std::make_unique<HttpServer>(
         node, s.http,
         HttpServer::Callbacks{
-            .on_refused = [&](int status, const std::string& reason,
-                              const std::string& peer) { live.on_refused(status, reason, peer); },
+            .on_refused =
+                [&](int status, const std::string& reason, const std::string& peer) {
+                  live.on_refused(status, reason, peer, ips::http::stats_text(http->stats()));
+                },
         });
     http->route("POST", s.http_path,
                 [&](const HttpRequest& r, const std::string& peer, ips::utime_t t) {
@@ -370,9 +376,20 @@ int main(int argc, char** argv) {
                      ->capture_default_str()
                      ->check(CLI::Range(1024, 64 << 20));
   auto* o_conns = app.add_option("--max-connections", s.http.max_connections,
-                                 "HTTP connections at once (more are refused with 503)")
+                                 "HTTP connections at once (when all are taken, a new one evicts "
+                                 "an idle or unfinished one; 503 when none is)")
                       ->capture_default_str()
                       ->check(CLI::Range(1, 256));
+  auto* o_peer_conns =
+      app.add_option("--max-connections-per-peer", s.http.max_connections_per_peer,
+                     "HTTP connections at once from one address (0: --max-connections)")
+          ->capture_default_str()
+          ->check(CLI::Range(0, 256));
+  auto* o_head_timeout =
+      app.add_option("--header-timeout", s.http.header_timeout_s,
+                     "seconds from a connection's accept to a whole request head (else 408)")
+          ->capture_default_str()
+          ->check(CLI::Range(0.1, 60.0));
   auto* o_jacc = app.add_option("--json-accel", s.json_names.accel,
                                 "Sensor Logger entry read as the accelerometer (with gravity)")
                      ->capture_default_str();
@@ -475,7 +492,8 @@ int main(int argc, char** argv) {
     for (const auto* o : {o_udp_bind, o_udp_time, o_max_dgram})
       if (o->count() > 0) return usage_error(o->get_name() + " goes with --udp-port");
   if (o_http->count() == 0)
-    for (const auto* o : {o_http_bind, o_path, o_body, o_conns, o_jacc, o_jgyr, o_jmag})
+    for (const auto* o : {o_http_bind, o_path, o_body, o_conns, o_peer_conns, o_head_timeout,
+                          o_jacc, o_jgyr, o_jmag})
       if (o->count() > 0) return usage_error(o->get_name() + " goes with --http-port");
   UnitScales units;
   if (!accel_scale_from_name(accel_unit, units.accel))

@@ -1,6 +1,8 @@
 // The HTTP server on a real Node's loop (LCM memq) with real TCP clients on 127.0.0.1: routes,
 // HEAD, 404/405, keep-alive, Server-Sent Events streams and every bound (connections, a client
-// that does not read a response, a stream client that falls behind).
+// that does not read a response, a stream client that falls behind); the slot policy
+// (decide_slot) alone, and on sockets: eviction, per-peer bounds (clients bound to 127.0.0.2 and
+// up), header timeouts (short ones, injected through the options).
 #include "core/http_server.hpp"
 
 #include <arpa/inet.h>
@@ -15,6 +17,7 @@
 #include <chrono>
 #include <cstdio>
 #include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -50,10 +53,17 @@ bool spin_until(Node& node, const std::function<bool()>& done) {
 class Client {
  public:
   // rcvbuf_bytes > 0: a small receive buffer, so that a client that does not read is soon full.
-  explicit Client(uint16_t port, int rcvbuf_bytes = 0) {
+  // source: the address to connect from (any 127.x.y.z is loopback on Linux: distinct peers).
+  explicit Client(uint16_t port, int rcvbuf_bytes = 0, const char* source = nullptr) {
     fd_ = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
     if (rcvbuf_bytes > 0)
       setsockopt(fd_, SOL_SOCKET, SO_RCVBUF, &rcvbuf_bytes, sizeof rcvbuf_bytes);
+    if (source != nullptr) {
+      sockaddr_in from{};
+      from.sin_family = AF_INET;
+      inet_pton(AF_INET, source, &from.sin_addr);
+      EXPECT_EQ(::bind(fd_, reinterpret_cast<const sockaddr*>(&from), sizeof from), 0) << source;
+    }
     sockaddr_in sa{};
     sa.sin_family = AF_INET;
     sa.sin_port = htons(port);
@@ -70,6 +80,10 @@ class Client {
   void send(std::string_view bytes) {
     ASSERT_EQ(::send(fd_, bytes.data(), bytes.size(), MSG_NOSIGNAL),
               static_cast<ssize_t>(bytes.size()));
+  }
+  // Sends what the socket takes now (none once the server has closed it).
+  void try_send(std::string_view bytes) {
+    [[maybe_unused]] const ssize_t n = ::send(fd_, bytes.data(), bytes.size(), MSG_NOSIGNAL);
   }
   // Takes what has arrived; false once the server has closed the connection.
   bool pump() {
@@ -462,15 +476,140 @@ TEST(HttpServer, ClientNotReadingALargeResponseIsClosedAndNotServedMore) {
   EXPECT_EQ(calls, 1);
 }
 
-TEST(HttpServer, ConnectionsOverTheLimitAre503) {
+// --- the slot policy alone ---------------------------------------------------------------------
+
+using Use = SlotView::Use;
+
+TEST(DecideSlot, AdmitsWhileThereIsRoom) {
+  const std::vector<SlotView> conns = {{"10.0.0.1", Use::kWaiting, 9}, {"10.0.0.2", Use::kBusy, 0}};
+  const SlotDecision d = decide_slot(conns, "10.0.0.3", 3, 2);
+  EXPECT_TRUE(d.admit);
+  EXPECT_EQ(d.evict, SlotDecision::kNone);
+}
+
+TEST(DecideSlot, FullEvictsTheLongestWaitingOfThePeerHoldingTheMost) {
+  // 10.0.0.1 has waited longest, but 10.0.0.2 holds two slots.
+  const std::vector<SlotView> conns = {{"10.0.0.1", Use::kWaiting, 9},
+                                       {"10.0.0.2", Use::kWaiting, 1},
+                                       {"10.0.0.2", Use::kWaiting, 3},
+                                       {"10.0.0.3", Use::kBusy, 0}};
+  const SlotDecision d = decide_slot(conns, "10.0.0.4", 4, 4);
+  EXPECT_TRUE(d.admit);
+  EXPECT_EQ(d.evict, 2u);
+  EXPECT_EQ(d.reason, "all 4 connections are taken");
+  // Peers holding as many: the longest waiting of them.
+  const std::vector<SlotView> even = {{"10.0.0.1", Use::kWaiting, 2},
+                                      {"10.0.0.2", Use::kWaiting, 5},
+                                      {"10.0.0.3", Use::kWaiting, 0.5}};
+  EXPECT_EQ(decide_slot(even, "10.0.0.4", 3, 4).evict, 1u);
+}
+
+TEST(DecideSlot, WaitingGoesBeforeABodyArriving) {
+  const std::vector<SlotView> conns = {{"10.0.0.1", Use::kBody, 9}, {"10.0.0.2", Use::kWaiting, 1}};
+  EXPECT_EQ(decide_slot(conns, "10.0.0.3", 2, 2).evict, 1u);
+  const std::vector<SlotView> bodies = {{"10.0.0.1", Use::kBody, 9}, {"10.0.0.2", Use::kBusy, 1}};
+  EXPECT_EQ(decide_slot(bodies, "10.0.0.3", 2, 2).evict, 0u);
+}
+
+TEST(DecideSlot, BusyOnesAreNeverEvictedThenTheNewOneIsRefused) {
+  const std::vector<SlotView> conns = {{"10.0.0.1", Use::kBusy, 9}, {"10.0.0.2", Use::kBusy, 9}};
+  const SlotDecision d = decide_slot(conns, "10.0.0.3", 2, 2);
+  EXPECT_FALSE(d.admit);
+  EXPECT_EQ(d.reason, "more than 2 connections (none idle or unfinished to evict)");
+}
+
+TEST(DecideSlot, APeerAtItsLimitTakesOneOfItsOwnEvenWithRoomLeft) {
+  const std::vector<SlotView> conns = {{"10.0.0.1", Use::kWaiting, 1},
+                                       {"10.0.0.2", Use::kWaiting, 9},
+                                       {"10.0.0.1", Use::kWaiting, 3}};
+  const SlotDecision d = decide_slot(conns, "10.0.0.1", 8, 2);
+  EXPECT_TRUE(d.admit);
+  EXPECT_EQ(d.evict, 2u);
+  EXPECT_EQ(d.reason, "the 2 connections of 10.0.0.1 are taken");
+  // Its own all busy: refused, though another peer's connection waits.
+  const std::vector<SlotView> busy = {{"10.0.0.1", Use::kBusy, 1},
+                                      {"10.0.0.2", Use::kWaiting, 9},
+                                      {"10.0.0.1", Use::kBusy, 3}};
+  const SlotDecision r = decide_slot(busy, "10.0.0.1", 8, 2);
+  EXPECT_FALSE(r.admit);
+  EXPECT_EQ(r.reason, "more than 2 connections from 10.0.0.1 (none idle or unfinished to evict)");
+  // 0: no bound per peer but the total.
+  EXPECT_EQ(decide_slot(conns, "10.0.0.1", 8, 0).evict, SlotDecision::kNone);
+}
+
+TEST(DecideSlot, OneWithBytesWaitingToBeReadIsSkipped) {
+  const std::vector<SlotView> conns = {{"10.0.0.1", Use::kWaiting, 9},
+                                       {"10.0.0.2", Use::kWaiting, 5},
+                                       {"10.0.0.3", Use::kWaiting, 1}};
+  std::vector<size_t> asked;
+  const SlotDecision d = decide_slot(conns, "10.0.0.4", 3, 3, [&](size_t i) {
+    asked.push_back(i);
+    return i == 0;
+  });
+  EXPECT_EQ(d.evict, 1u);
+  EXPECT_EQ(asked, (std::vector<size_t>{0, 1}));
+  const SlotDecision none = decide_slot(conns, "10.0.0.4", 3, 3, [](size_t) { return true; });
+  EXPECT_FALSE(none.admit);
+}
+
+TEST(DecideSlot, StatsText) {
+  HttpServerStats s;
+  s.accepted = 7;
+  s.refused = 1;
+  s.evicted = 2;
+  s.header_timeouts = 3;
+  s.request_timeouts = 4;
+  EXPECT_EQ(stats_text(s),
+            "7 accepted, 1 refused (no slot), 2 evicted, 3 header timeouts, 4 request timeouts");
+}
+
+// --- slots on sockets ----------------------------------------------------------------------------
+
+TEST(HttpServer, ANewConnectionEvictsTheLongestIdleWhenAllAreTaken) {
   HttpServerOptions o = any_port();
   o.max_connections = 2;
   Fixture f(o);
   f.server.route("GET", "/", page);
   ASSERT_TRUE(f.open());
-  Client a(f.server.bound_port()), b(f.server.bound_port());
+  Client a(f.server.bound_port(), 0, "127.0.0.2");
+  ASSERT_TRUE(spin_until(f.node, [&] { return f.server.connections() == 1; }));
+  Client b(f.server.bound_port(), 0, "127.0.0.3");
   ASSERT_TRUE(spin_until(f.node, [&] { return f.server.connections() == 2; }));
   Client c(f.server.bound_port());
+  c.send("GET / HTTP/1.1\r\n\r\n");
+  EXPECT_EQ(get_response(f.node, c).body, "<p>hi</p>");
+  // a, the longest waiting, got a 408 and was closed; b is served.
+  ASSERT_TRUE(a.read_to_eof(f.node));
+  Response r;
+  ASSERT_TRUE(take_response(a.received, r));
+  EXPECT_EQ(r.status, 408);
+  b.send("GET / HTTP/1.1\r\n\r\n");
+  EXPECT_EQ(get_response(f.node, b).body, "<p>hi</p>");
+  ASSERT_EQ(f.refused.size(), 1u);
+  EXPECT_EQ(f.refused[0].status, 408);
+  EXPECT_EQ(f.refused[0].peer, "127.0.0.2");
+  const std::string prefix = "evicted (no request after ";
+  EXPECT_EQ(f.refused[0].reason.substr(0, prefix.size()), prefix) << f.refused[0].reason;
+  EXPECT_NE(f.refused[0].reason.find(
+                ") for a new connection from 127.0.0.1: all 2 connections are taken"),
+            std::string::npos)
+      << f.refused[0].reason;
+  EXPECT_EQ(f.server.stats().evicted, 1);
+  EXPECT_EQ(f.server.stats().accepted, 3);
+  EXPECT_EQ(f.server.stats().refused, 0);
+}
+
+TEST(HttpServer, ConnectionsOverTheLimitAre503WhenNoneCanBeEvicted) {
+  HttpServerOptions o = any_port();
+  o.max_connections = 2;
+  Fixture f(o);
+  f.server.stream("/events", [](HttpServer::StreamId) {});
+  ASSERT_TRUE(f.open());
+  Client a(f.server.bound_port()), b(f.server.bound_port(), 0, "127.0.0.2");
+  a.send("GET /events HTTP/1.1\r\n\r\n");
+  b.send("GET /events HTTP/1.1\r\n\r\n");
+  ASSERT_TRUE(spin_until(f.node, [&] { return f.server.stream_count("/events") == 2; }));
+  Client c(f.server.bound_port(), 0, "127.0.0.3");
   ASSERT_TRUE(c.read_to_eof(f.node));
   Response r;
   ASSERT_TRUE(take_response(c.received, r));
@@ -478,11 +617,118 @@ TEST(HttpServer, ConnectionsOverTheLimitAre503) {
   EXPECT_EQ(r.body, R"j({"status":"error","reason":"too many connections"})j");
   ASSERT_EQ(f.refused.size(), 1u);
   EXPECT_EQ(f.refused[0].status, 503);
-  EXPECT_EQ(f.refused[0].reason, "more than 2 connections");
-  // The two admitted are served.
-  a.send("GET / HTTP/1.1\r\n\r\n");
-  EXPECT_EQ(get_response(f.node, a).body, "<p>hi</p>");
-  EXPECT_EQ(f.server.connections(), 2u);
+  EXPECT_EQ(f.refused[0].reason, "more than 2 connections (none idle or unfinished to evict)");
+  EXPECT_EQ(f.refused[0].peer, "127.0.0.3");
+  EXPECT_EQ(f.server.stats().refused, 1);
+  EXPECT_EQ(f.server.stream_count("/events"), 2u);
+}
+
+TEST(HttpServer, APeerOverItsLimitEvictsItsOwnNotAnothers) {
+  HttpServerOptions o = any_port();
+  o.max_connections = 8;
+  o.max_connections_per_peer = 2;
+  Fixture f(o);
+  f.server.route("GET", "/", page);
+  ASSERT_TRUE(f.open());
+  Client other(f.server.bound_port(), 0, "127.0.0.9");  // waits longest of all
+  ASSERT_TRUE(spin_until(f.node, [&] { return f.server.connections() == 1; }));
+  std::vector<std::unique_ptr<Client>> flood;
+  for (int i = 0; i < 6; ++i) {
+    flood.push_back(std::make_unique<Client>(f.server.bound_port(), 0, "127.0.0.2"));
+    ASSERT_TRUE(spin_until(f.node, [&] { return f.server.stats().accepted == i + 2; }));
+  }
+  EXPECT_EQ(f.server.connections(), 3u);  // other and the flood's last two
+  EXPECT_EQ(f.server.stats().evicted, 4);
+  for (const Refusal& r : f.refused) EXPECT_EQ(r.peer, "127.0.0.2");
+  other.send("GET / HTTP/1.1\r\n\r\n");
+  EXPECT_EQ(get_response(f.node, other).body, "<p>hi</p>");
+  flood[5]->send("GET / HTTP/1.1\r\n\r\n");
+  EXPECT_EQ(get_response(f.node, *flood[5]).body, "<p>hi</p>");
+  ASSERT_TRUE(flood[0]->read_to_eof(f.node));
+}
+
+TEST(HttpServer, AHeadNotCompleteInTimeIs408EvenDribbled) {
+  HttpServerOptions o = any_port();
+  o.header_timeout_s = 0.2;
+  Fixture f(o);
+  f.server.route("GET", "/", page);
+  ASSERT_TRUE(f.open());
+  const auto start = std::chrono::steady_clock::now();
+  Client silent(f.server.bound_port()), dribbler(f.server.bound_port(), 0, "127.0.0.2");
+  // A byte every 5 ms: never a whole head, always a byte more.
+  const std::string head = "GET / HTTP/1.1\r\nHost: x\r\nX-Padding: ";
+  size_t sent = 0;
+  auto next_byte = start;
+  ASSERT_TRUE(spin_until(f.node, [&] {
+    if (std::chrono::steady_clock::now() < next_byte) return !dribbler.pump();
+    next_byte += std::chrono::milliseconds(5);
+    if (sent < head.size()) {
+      dribbler.try_send(head.substr(sent, 1));
+      ++sent;
+    } else {
+      dribbler.try_send("a");
+    }
+    return !dribbler.pump();
+  }));
+  ASSERT_TRUE(silent.read_to_eof(f.node));
+  EXPECT_GE(std::chrono::steady_clock::now() - start, std::chrono::milliseconds(200));
+  Response r;
+  ASSERT_TRUE(take_response(silent.received, r));
+  EXPECT_EQ(r.status, 408);
+  EXPECT_EQ(r.body, R"j({"status":"error","reason":"no request after 0.2 s"})j");
+  ASSERT_TRUE(take_response(dribbler.received, r));
+  EXPECT_EQ(r.status, 408);
+  EXPECT_EQ(r.body, R"j({"status":"error","reason":"request head incomplete after 0.2 s"})j");
+  EXPECT_EQ(f.server.stats().header_timeouts, 2);
+  EXPECT_EQ(f.server.connections(), 0u);
+}
+
+TEST(HttpServer, HeaderTimeoutDoesNotCutAnIdleKeptAliveConnection) {
+  HttpServerOptions o = any_port();
+  o.header_timeout_s = 0.05;
+  Fixture f(o);
+  f.server.route("GET", "/", page);
+  ASSERT_TRUE(f.open());
+  Client c(f.server.bound_port());
+  c.send("GET / HTTP/1.1\r\n\r\n");
+  EXPECT_EQ(get_response(f.node, c).body, "<p>hi</p>");
+  // Well past the header timeout (the sweep runs every 12.5 ms): still open, and served.
+  const auto until = std::chrono::steady_clock::now() + std::chrono::milliseconds(300);
+  while (std::chrono::steady_clock::now() < until) f.node.spin_once(5);
+  EXPECT_TRUE(c.pump());
+  c.send("GET / HTTP/1.1\r\n\r\n");
+  EXPECT_EQ(get_response(f.node, c).body, "<p>hi</p>");
+  EXPECT_EQ(f.server.stats().header_timeouts, 0);
+  // Then a head begun and not finished is cut, counted from its first byte.
+  c.send("GET / HT");
+  ASSERT_TRUE(c.read_to_eof(f.node));
+  Response r;
+  ASSERT_TRUE(take_response(c.received, r));
+  EXPECT_EQ(r.status, 408);
+  EXPECT_EQ(f.server.stats().header_timeouts, 1);
+}
+
+TEST(HttpServer, AFloodOfIdleConnectionsFromOtherPeersDoesNotStarveAClient) {
+  HttpServerOptions o = any_port();
+  o.max_connections = 8;
+  o.max_connections_per_peer = 4;
+  Fixture f(o);
+  f.server.route("GET", "/", page);
+  ASSERT_TRUE(f.open());
+  std::vector<std::unique_ptr<Client>> flood;
+  const char* sources[] = {"127.0.0.2", "127.0.0.3", "127.0.0.4", "127.0.0.5"};
+  for (int i = 0; i < 40; ++i)
+    flood.push_back(std::make_unique<Client>(f.server.bound_port(), 0, sources[i % 4]));
+  ASSERT_TRUE(spin_until(f.node, [&] { return f.server.stats().accepted == 40; }));
+  EXPECT_EQ(f.server.connections(), 8u);
+  for (int k = 0; k < 5; ++k) {
+    Client c(f.server.bound_port());
+    c.send("GET / HTTP/1.1\r\n\r\n");
+    // More of the flood while the request is on its way.
+    Client more(f.server.bound_port(), 0, sources[k % 4]);
+    EXPECT_EQ(get_response(f.node, c).body, "<p>hi</p>");
+  }
+  EXPECT_EQ(f.server.stats().refused, 0);
 }
 
 }  // namespace

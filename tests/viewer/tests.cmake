@@ -15,3 +15,10 @@ add_test(NAME view_browser_netns
                  ${CMAKE_RUNTIME_OUTPUT_DIRECTORY})
 set_tests_properties(view_browser_netns PROPERTIES LABELS integration TIMEOUT 180
                                                    SKIP_RETURN_CODE 77 RESOURCE_LOCK cpu_heavy)
+# ips-view cannot be starved (issue 28): 200 idle connections and a slowloris held open while
+# 20 page loads each get the page within 1 s; HEALTH counts the cuts.
+add_test(NAME view_http_starve_netns
+         COMMAND ${CMAKE_CURRENT_SOURCE_DIR}/viewer/view_http_starve_netns.sh
+                 ${CMAKE_RUNTIME_OUTPUT_DIRECTORY})
+set_tests_properties(view_http_starve_netns PROPERTIES LABELS integration TIMEOUT 240
+                                                       SKIP_RETURN_CODE 77 RESOURCE_LOCK cpu_heavy)

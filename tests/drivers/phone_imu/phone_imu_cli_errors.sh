@@ -58,7 +58,8 @@ refuse "--channel: unknown kind" --udp-port 5555 --channel IMUX=X
 
 out=$("$BIN/ips-phone-imu" --help) || fail "--help: status $?"
 for flag in --udp-port --udp-bind --columns --udp-time-unit --max-datagram-bytes --http-port \
-  --http-bind --http-path --max-body-bytes --max-connections --json-accel --json-gyro --json-mag \
+  --http-bind --http-path --max-body-bytes --max-connections --max-connections-per-peer \
+  --header-timeout --json-accel --json-gyro --json-mag \
   --file --file-columns --file-time-unit --file-start-s --out --speed --as-fast-as-possible \
   --separator --header --time-unit --file-start --rate \
   --accel-unit --gyro-unit --mag-unit --assemble --pair-window-s --clock-window-s --clock-jump-s \

@@ -49,3 +49,11 @@ add_test(NAME phone_imu_realdata
          COMMAND ${CMAKE_CURRENT_SOURCE_DIR}/drivers/phone_imu/phone_imu_realdata.sh
                  ${CMAKE_RUNTIME_OUTPUT_DIRECTORY})
 set_tests_properties(phone_imu_realdata PROPERTIES LABELS integration TIMEOUT 60)
+
+# The HTTP input cannot be starved (issue 28): 200 idle connections and a slowloris held open
+# while 20 uploads each get their 200 within 1 s and reach the bus; HEALTH counts the cuts.
+add_test(NAME phone_imu_http_starve_netns
+         COMMAND ${CMAKE_CURRENT_SOURCE_DIR}/drivers/phone_imu/phone_imu_http_starve_netns.sh
+                 ${CMAKE_RUNTIME_OUTPUT_DIRECTORY})
+set_tests_properties(phone_imu_http_starve_netns PROPERTIES LABELS integration TIMEOUT 240
+                                                            SKIP_RETURN_CODE 77 RESOURCE_LOCK cpu_heavy)
