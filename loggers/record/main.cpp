@@ -145,6 +145,7 @@ int main(int argc, char** argv) {
     std::string stopped_by;
     const auto t0 = std::chrono::steady_clock::now();
     node.add_timer(1.0, [&] {
+      recorder->set_loss_json(node.loss().json());
       const auto s = recorder->stats();
       if (recorder->site_missing() && !site_warned) {
         site_warned = true;
@@ -186,6 +187,7 @@ int main(int argc, char** argv) {
                    : node.stop_signal() == SIGHUP ? "SIGHUP"
                                                   : "LCM failure";
     try {
+      recorder->set_loss_json(node.loss().json());
       recorder->stop(stopped_by);
     } catch (const std::exception& e) {
       spdlog::error("{}: {}", kProgram, e.what());

@@ -296,6 +296,7 @@ std::string sidecar_json(const SessionInfo& info, const std::vector<PartInfo>& p
   j += "  \"bytes\": " + num(bytes) + ",\n";
   j += "  \"dropped\": " + num(dropped) + ",\n";
   j += "  \"queue_peak_bytes\": " + std::to_string(queue_peak_bytes) + ",\n";
+  if (!info.loss_json.empty()) j += "  \"loss\": " + info.loss_json + ",\n";
   j += "  \"parts\": [";
   for (size_t i = 0; i < parts.size(); ++i) {
     const auto& p = parts[i];
@@ -429,6 +430,18 @@ void Recorder::writer_loop() {
   }
 }
 
+void Recorder::set_loss_json(std::string json) {
+  std::lock_guard lock(stats_mutex_);
+  loss_json_ = std::move(json);
+}
+
+SessionInfo Recorder::info_with_loss() const {
+  SessionInfo info = o_.info;
+  std::lock_guard lock(stats_mutex_);
+  info.loss_json = loss_json_;
+  return info;
+}
+
 void Recorder::write_sidecar() {
   auto channels = writer_.channels();
   int64_t dropped = queue_.dropped();
@@ -441,7 +454,7 @@ void Recorder::write_sidecar() {
     }
   }
   const std::string text =
-      sidecar_json(o_.info, writer_.parts(), channels, dropped, queue_.peak_bytes());
+      sidecar_json(info_with_loss(), writer_.parts(), channels, dropped, queue_.peak_bytes());
   // Replace it whole (write, then rename), so that a reader never sees half a sidecar.
   const fs::path path = sidecar_path(o_.session.out);
   fs::path tmp = path;

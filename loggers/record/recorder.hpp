@@ -157,6 +157,7 @@ struct SessionInfo {
   int64_t start_utime = 0;
   int64_t end_utime = 0;  // 0 while recording
   std::string stopped_by;  // "SIGINT", "duration", "error: ...", or empty while recording
+  std::string loss_json;  // "loss": what the bus lost before us (ips::BusLoss::json()), or empty
 };
 
 // The sidecar JSON (docs/programs.md#ips-record): pure, for tests.
@@ -203,10 +204,13 @@ class Recorder {
   RecorderStats stats() const;
   // Set once when the site wait ended without a site (for a warning by the caller).
   bool site_missing() const { return site_missing_; }
+  // What the bus lost on the way to us (a JSON object): in the sidecars written from now on.
+  void set_loss_json(std::string json);
 
  private:
   void writer_loop();
   void write_sidecar();
+  SessionInfo info_with_loss() const;
 
   RecorderOptions o_;
   EventQueue queue_;
@@ -217,6 +221,7 @@ class Recorder {
   RecorderStats snapshot_;
   std::map<std::string, int64_t> lost_by_channel_;  // queued when the writer failed
   std::atomic<bool> site_missing_{false};
+  std::string loss_json_;  // under stats_mutex_
   bool stopped_ = false;
 };
 
