@@ -77,8 +77,9 @@ int main(int argc, char** argv) {
                                          "what a killed recorder loses)")
       ->capture_default_str()
       ->check(CLI::Range(1.0, 60000.0));
-  app.add_option("--min-free-mb", min_free_mb, "refuse to start, and stop, when the disk has less "
-                                               "free space than this")
+  app.add_option("--min-free-mb", min_free_mb, "refuse to start, and pause, when the disk has "
+                                               "less free space than this (a full disk pauses "
+                                               "whatever this is; recording resumes by itself)")
       ->capture_default_str()
       ->check(CLI::NonNegativeNumber);
   app.add_option("--site-wait", site_wait_s, "without --site, hold the first messages this many "
@@ -140,8 +141,9 @@ int main(int argc, char** argv) {
                  ro.session.split_mb > 0 || ro.session.split_s > 0 ? " (and further parts)" : "");
 
     const bool tty = isatty(STDERR_FILENO);
-    int64_t reported_drops = 0;
-    bool site_warned = false;
+    int64_t reported_drops = 0, reported_lost = 0, pauses_seen = 0;
+    bool site_warned = false, paused = false;
+    std::string sidecar_warned;
     std::string stopped_by;
     const auto t0 = std::chrono::steady_clock::now();
     node.add_timer(1.0, [&] {
@@ -160,6 +162,34 @@ int main(int argc, char** argv) {
         reported_drops = s.dropped;
         node.report_error("messages dropped: the writer falls behind");
       }
+      // The disk: paused (HEALTH in error, saying why and what it costs so far), and resumed.
+      node.counters().drops += s.lost_disk - reported_lost;
+      reported_lost = s.lost_disk;
+      if (s.paused) {
+        const std::string text = "paused: " + s.pause.reason + " since " +
+                                 rec::iso_utc(s.pause.start_utime) + ": " +
+                                 std::to_string(s.pause.lost) + " messages not written so far";
+        if (!paused || s.pauses != pauses_seen)
+          spdlog::error("{}: {}; resumes by itself when space returns", kProgram, text);
+        paused = true;
+        pauses_seen = s.pauses;
+        node.set_state(ips::health_t::STATE_ERROR);
+        node.report_lasting_error("disk", text);
+      } else if (paused || s.pauses != pauses_seen) {  // also a pause shorter than a second
+        paused = false;
+        pauses_seen = s.pauses;
+        const std::string text =
+            "resumed after " + s.pause.reason + ": " + std::to_string(s.pause.lost) +
+            " messages lost from " + rec::iso_utc(s.pause.start_utime) + " to " +
+            rec::iso_utc(s.pause.end_utime);
+        spdlog::warn("{}: {}", kProgram, text);
+        node.end_lasting_error("disk");
+        node.set_state(ips::health_t::STATE_OK);
+        node.report_error(text);
+      }
+      if (!s.sidecar_error.empty() && s.sidecar_error != sidecar_warned)
+        spdlog::warn("{}: {}", kProgram, s.sidecar_error);
+      sidecar_warned = s.sidecar_error;
       if (const auto err = recorder->error()) {
         spdlog::error("{}: {}", kProgram, *err);
         stopped_by = "error";
@@ -197,6 +227,9 @@ int main(int argc, char** argv) {
     spdlog::info("{}: {} events in {} file(s), {:.1f} MB, {} dropped; sidecar {}", kProgram,
                  s.written, s.parts, static_cast<double>(s.bytes) / 1e6, s.dropped,
                  rec::sidecar_path(ro.session.out).string());
+    if (s.pauses > 0)
+      spdlog::warn("{}: the disk paused the recording {} time(s){}: {} messages not written",
+                   kProgram, s.pauses, s.paused ? " (still paused at the end)" : "", s.lost_disk);
     if (const auto err = recorder->error()) {
       ips::print_fatal(kProgram, *err);
       return 1;

@@ -1,6 +1,7 @@
 // ips-record's core: the bounded queue drops and counts instead of blocking, every part starts
 // with SITE, parts split by size and by time without losing or reordering an event, a stop writes
-// everything received, refusals say why, and a failing disk is reported.
+// everything received, refusals say why, and a full disk pauses the recording (the log cut back
+// to its last complete event, the sidecar saying so) until space returns, the gap counted.
 #include "loggers/record/recorder.hpp"
 
 #include <gtest/gtest.h>
@@ -11,6 +12,7 @@
 #include <ips/site_t.hpp>
 #include <lcm/lcm-cpp.hpp>
 
+#include "core/log_reader.hpp"
 #include "core/node.hpp"
 #include "drivers/sim/simulator.hpp"
 
@@ -60,6 +62,11 @@ class TempDir {
  private:
   fs::path path_;
 };
+
+std::string read_text(const fs::path& path) {
+  std::ifstream in(path);
+  return std::string((std::istreambuf_iterator<char>(in)), {});
+}
 
 bool is_site(const Read& r) {
   site_t s;
@@ -313,34 +320,302 @@ TEST(Recorder, AStopWritesEverythingReceivedAndDropsBeyondTheQueueAreCounted) {
   EXPECT_EQ(r.stats().written, 100);
   std::ifstream sidecar(dir.path() / "d.json");
   const std::string j((std::istreambuf_iterator<char>(sidecar)), {});
-  EXPECT_NE(j.find("\"IMU\": {\"events\": 100, \"bytes\": 20000, \"dropped\": 150}"),
+  EXPECT_NE(j.find("\"IMU\": {\"events\": 100, \"bytes\": 20000, \"dropped\": 150, \"lost_disk\": 0}"),
             std::string::npos)
       << j;
 }
 
-TEST(Recorder, AFullDiskStopsTheRecordingWithTheReason) {
+TEST(Recorder, DevFullPausesTheRecordingWithTheReasonInsteadOfEndingIt) {
   // /dev/full fails every write with ENOSPC: a full disk without mounting one.
-  if (access("/dev/full", W_OK) != 0 || access("/dev", W_OK) != 0)
-    GTEST_SKIP() << "/dev/full or /dev not writable here";
-  auto ro = recorder_options("/dev/full");
-  ro.session.force = true;
-  ro.site_wait_s = 0;
+  if (access("/dev/full", W_OK) != 0)
+    GTEST_SKIP() << "/dev/full not writable here";
   TempDir dir;
   // The sidecar would be /dev/full.json: keep it out of /dev by recording under a symlink.
   fs::create_symlink("/dev/full", dir.path() / "full.lcm");
-  ro.session.out = dir.path() / "full.lcm";
+  auto ro = recorder_options(dir.path() / "full.lcm");
+  ro.session.force = true;
+  ro.site_wait_s = 0;
+  ro.disk_poll_s = 3600;  // stays paused for the test
   Recorder r(ro);
   const Event e{"IMU", 1, std::vector<uint8_t>(1000)};
-  for (int i = 0; i < 200 && !r.error(); ++i) {
+  int offered = 0;
+  for (int i = 0; i < 5000 && !r.stats().paused; ++i, ++offered) {
     r.offer(e.channel, e.utime, e.data.data(), e.data.size());
     std::this_thread::sleep_for(std::chrono::milliseconds(2));
   }
+  ASSERT_TRUE(r.stats().paused);
+  EXPECT_NE(r.stats().pause.reason.find("No space left on device"), std::string::npos)
+      << r.stats().pause.reason;
   r.stop("test");
-  ASSERT_TRUE(r.error().has_value());
-  EXPECT_NE(r.error()->find("No space left on device"), std::string::npos) << *r.error();
-  std::ifstream sidecar(dir.path() / "full.json");
-  const std::string j((std::istreambuf_iterator<char>(sidecar)), {});
-  EXPECT_NE(j.find("\"stopped_by\": \"error: write to"), std::string::npos) << j;
+  EXPECT_FALSE(r.error().has_value()) << *r.error();
+  EXPECT_EQ(r.stats().written, 0);
+  EXPECT_EQ(r.stats().lost_disk, offered);
+  const std::string j = read_text(dir.path() / "full.json");
+  EXPECT_NE(j.find("\"stopped_by\": \"test\""), std::string::npos) << j;
+  EXPECT_NE(j.find("\"reason\": \"disk full (No space left on device)\""), std::string::npos) << j;
+  EXPECT_NE(j.find("\"lost\": " + std::to_string(offered)), std::string::npos) << j;
+}
+
+TEST(DiskState, PausesCountsLossesPollsAtItsRateAndResumesWithEnoughSpace) {
+  DiskState d(1000, 1.0);
+  EXPECT_FALSE(d.paused());
+  d.pause(10'000'000, "disk full (No space left on device)", {{"IMU", 3}});
+  EXPECT_TRUE(d.paused());
+  d.lose("IMU");
+  d.lose("UWB_RANGE", 2);
+  d.pause(10'100'000, "write error (again)", {{"IMU", 1}});  // still the same pause
+  ASSERT_EQ(d.pauses().size(), 1u);
+  EXPECT_EQ(d.pauses()[0].reason, "disk full (No space left on device)");
+  EXPECT_EQ(d.pauses()[0].lost, 7);
+  EXPECT_FALSE(d.poll_due(10'500'000)) << "polls at most once a second";
+  EXPECT_TRUE(d.poll_due(11'000'000));
+  EXPECT_FALSE(d.try_resume(11'000'000, 999)) << "not enough space yet";
+  EXPECT_TRUE(d.paused());
+  EXPECT_FALSE(d.poll_due(11'900'000));
+  EXPECT_TRUE(d.try_resume(12'000'000, 1000));
+  EXPECT_FALSE(d.paused());
+  EXPECT_EQ(d.pauses()[0].start_utime, 10'000'000);
+  EXPECT_EQ(d.pauses()[0].end_utime, 12'000'000);
+  EXPECT_FALSE(d.poll_due(20'000'000)) << "nothing to poll while recording";
+  d.pause(30'000'000, "disk quota exceeded (Disk quota exceeded)", {});
+  d.lose("IMU");
+  ASSERT_EQ(d.pauses().size(), 2u);
+  EXPECT_EQ(d.pauses()[1].lost, 1);
+  EXPECT_EQ(d.lost(), 8);
+  EXPECT_EQ(d.lost_by_channel().at("IMU"), 6);
+  EXPECT_EQ(d.lost_by_channel().at("UWB_RANGE"), 2);
+  const std::string j = sidecar_json(SessionInfo{}, {}, {{"IMU", {5, 50, 0}}}, 0, 0, &d);
+  for (const char* want :
+       {"\"state\": \"paused\"", "\"recording\": false",
+        "\"paused\": {\"reason\": \"disk quota exceeded (Disk quota exceeded)\", \"since_utime\": "
+        "30000000, \"since\": \"1970-01-01T00:00:30.000000Z\", \"not_written\": 1}",
+        "\"lost\": 8, \"pauses\": [",
+        "{\"reason\": \"disk full (No space left on device)\", \"start_utime\": 10000000, "
+        "\"start\": \"1970-01-01T00:00:10.000000Z\", \"end_utime\": 12000000, \"end\": "
+        "\"1970-01-01T00:00:12.000000Z\", \"lost\": 7}",
+        "\"end_utime\": null, \"end\": null, \"lost\": 1}",
+        "\"IMU\": {\"events\": 5, \"bytes\": 50, \"dropped\": 0, \"lost_disk\": 6}"})
+    EXPECT_NE(j.find(want), std::string::npos) << want << "\n" << j;
+}
+
+// write(2) that takes at most `room` more bytes (a partial write, then ENOSPC), like a disk
+// filling up.
+struct FillingDisk {
+  std::shared_ptr<std::atomic<int64_t>> room = std::make_shared<std::atomic<int64_t>>(INT64_MAX);
+  void install(SessionOptions& o) const {
+    auto r = room;
+    o.write_fn = [r](int fd, const void* data, size_t size) -> ssize_t {
+      const int64_t left = r->load();
+      if (left <= 0) {
+        errno = ENOSPC;
+        return -1;
+      }
+      const size_t n = std::min<size_t>(size, static_cast<size_t>(left));
+      const ssize_t w = ::write(fd, data, n);
+      if (w > 0) *r -= w;
+      return w;
+    };
+    o.free_bytes_fn = [r](const fs::path&) -> uint64_t {
+      return r->load() > (int64_t{1} << 40) ? uint64_t{1} << 40 : static_cast<uint64_t>(std::max<int64_t>(0, r->load()));
+    };
+  }
+};
+
+LogReadStats read_stats(const fs::path& path, std::vector<std::string>* channels = nullptr) {
+  std::FILE* f = std::fopen(path.c_str(), "rb");
+  EXPECT_NE(f, nullptr) << path;
+  FileLogSource source(f);
+  LogReader reader(source);
+  while (const LogEvent* e = reader.next())
+    if (channels) channels->push_back(e->channel);
+  const LogReadStats s = reader.stats();
+  std::fclose(f);
+  return s;
+}
+
+TEST(SessionWriter, AWriteCutShortByAFullDiskLeavesTheLogEndingOnItsLastCompleteEvent) {
+  TempDir dir;
+  SessionOptions o;
+  o.out = dir.path() / "f.lcm";
+  FillingDisk disk;
+  disk.install(o);
+  const auto events = lab_events(5);
+  ASSERT_GT(events.size(), 400u);
+  SessionWriter w(o);
+  for (size_t i = 0; i < 100; ++i) w.write(events[i]);
+  w.flush();
+  const int64_t flushed = w.parts().back().bytes;
+  // Room for a little more than 150 bytes: the next write-out stops inside an event.
+  *disk.room = 150;
+  std::map<std::string, int64_t> lost;
+  size_t i = 100;
+  try {
+    for (; i < 300; ++i) w.write(events[i]);
+    w.flush();
+    FAIL() << "no DiskFullError";
+  } catch (const DiskFullError& e) {
+    EXPECT_NE(e.reason.find("No space left on device"), std::string::npos) << e.reason;
+    lost = e.lost;
+  }
+  int64_t n_lost = 0;
+  for (const auto& [ch, n] : lost) n_lost += n;
+  // Everything handed to the writer is either in the file or counted as lost.
+  EXPECT_EQ(w.events() + n_lost, static_cast<int64_t>(i)) << "written " << w.events();
+  EXPECT_GT(n_lost, 0);
+  const fs::path path = dir.path() / "f.lcm";
+  EXPECT_EQ(static_cast<int64_t>(fs::file_size(path)), w.parts().back().bytes);
+  EXPECT_GT(w.parts().back().bytes, flushed);
+  EXPECT_LE(w.parts().back().bytes, flushed + 150);
+  LogReadStats s = read_stats(path);
+  EXPECT_EQ(s.garbage_bytes, 0);
+  EXPECT_EQ(s.truncated_tail_bytes, 0);
+  EXPECT_EQ(s.events, w.events());
+  EXPECT_EQ(w.parts().back().last_utime, events[static_cast<size_t>(w.events() - 1)].utime);
+  // Space again: the next write appends to the same file, which stays one valid log.
+  *disk.room = INT64_MAX;
+  const int64_t before = w.events();
+  for (size_t k = i + 1; k < 400; ++k) w.write(events[k]);
+  w.close();
+  ASSERT_EQ(w.parts().size(), 1u);
+  EXPECT_EQ(w.events(), before + static_cast<int64_t>(400 - i - 1));
+  std::vector<std::string> channels;
+  s = read_stats(path, &channels);
+  EXPECT_EQ(s.garbage_bytes, 0);
+  EXPECT_EQ(s.truncated_tail_bytes, 0);
+  EXPECT_EQ(s.events, w.events());
+  EXPECT_EQ(static_cast<int64_t>(fs::file_size(path)), w.parts().back().bytes);
+  int64_t counted = 0;
+  for (const auto& [ch, c] : w.channels()) counted += c.events;
+  EXPECT_EQ(counted, w.events());
+  // liblcm's own reader agrees, event numbers and all.
+  EXPECT_EQ(static_cast<int64_t>(read_log(path).size()), w.events());
+}
+
+TEST(SessionWriter, BelowMinFreeItPausesWithoutLosingWhatWasWritten) {
+  TempDir dir;
+  SessionOptions o;
+  o.out = dir.path() / "m.lcm";
+  o.min_free_bytes = 1000;
+  FillingDisk disk;
+  disk.install(o);
+  const auto events = lab_events(2);
+  SessionWriter w(o);
+  for (size_t i = 0; i < 50; ++i) w.write(events[i]);
+  *disk.room = 10'000;  // room for everything buffered, then below the minimum... eventually
+  bool paused = false;
+  size_t i = 50;
+  for (; i < events.size() && !paused; ++i) {
+    try {
+      w.write(events[i]);
+      w.flush();
+    } catch (const DiskFullError& e) {
+      paused = true;
+      EXPECT_NE(e.reason.find("disk nearly full"), std::string::npos) << e.reason;
+      EXPECT_TRUE(e.lost.empty());
+    }
+  }
+  ASSERT_TRUE(paused);
+  EXPECT_EQ(w.events(), static_cast<int64_t>(i));
+  EXPECT_EQ(read_stats(o.out).events, w.events());
+  // Still below: a try to resume pauses again (and does not take the file for someone else's).
+  EXPECT_THROW(w.write(events[i]), DiskFullError);
+  EXPECT_THROW(w.write(events[i]), DiskFullError);
+  *disk.room = INT64_MAX;
+  for (size_t k = i; k < i + 10; ++k) w.write(events[k]);
+  w.close();
+  ASSERT_EQ(w.parts().size(), 1u);
+  EXPECT_EQ(read_stats(o.out).events, w.events());
+  EXPECT_EQ(w.events(), static_cast<int64_t>(i + 10));
+}
+
+TEST(Recorder, AFullDiskPausesThenRecordingResumesByItselfWithTheGapCounted) {
+  TempDir dir;
+  auto ro = recorder_options(dir.path() / "p.lcm");
+  ro.site_wait_s = 0;
+  ro.disk_poll_s = 0.05;
+  ro.resume_margin_bytes = 4096;
+  FillingDisk disk;
+  disk.install(ro.session);
+  Recorder r(ro);
+  const auto wait_for = [&](auto cond) {
+    for (int k = 0; k < 2000 && !cond(); ++k) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    return cond();
+  };
+  const Event e{"IMU", 1767225600000000, std::vector<uint8_t>(100)};
+  int64_t offered = 0;
+  const auto offer = [&] {
+    ASSERT_TRUE(r.offer(e.channel, e.utime + offered, e.data.data(), e.data.size()));
+    ++offered;
+  };
+  for (int k = 0; k < 100; ++k) offer();
+  ASSERT_TRUE(wait_for([&] { return r.stats().written == 100; }));
+  *disk.room = 0;
+  // Offered until the writer finds the disk full.
+  ASSERT_TRUE(wait_for([&] {
+    offer();
+    return r.stats().paused;
+  }));
+  const auto paused = r.stats();
+  EXPECT_EQ(paused.pause.reason, "disk full (No space left on device)");
+  EXPECT_GT(paused.pause.start_utime, 0);
+  EXPECT_EQ(paused.pause.end_utime, 0);
+  for (int k = 0; k < 20; ++k) offer();  // lost: the disk is full
+  ASSERT_TRUE(wait_for([&] { return r.stats().lost_disk + r.stats().written == offered; }));
+  EXPECT_TRUE(r.stats().paused);
+  // The sidecar says so (written in place or whole: the test's disk refuses only the log).
+  ASSERT_TRUE(wait_for([&] {
+    const std::string j = read_text(dir.path() / "p.json");
+    return j.find("\"state\": \"paused\"") != std::string::npos &&
+           j.find("\"not_written\": " + std::to_string(r.stats().lost_disk)) != std::string::npos;
+  })) << read_text(dir.path() / "p.json");
+  const int64_t lost = r.stats().lost_disk;
+  EXPECT_GE(lost, 20);
+  // Space returns: recording resumes by itself.
+  *disk.room = INT64_MAX;
+  ASSERT_TRUE(wait_for([&] { return !r.stats().paused; }));
+  for (int k = 0; k < 50; ++k) offer();
+  ASSERT_TRUE(wait_for([&] { return r.stats().written + r.stats().lost_disk == offered; }));
+  r.stop("test");
+  const auto s = r.stats();
+  EXPECT_EQ(s.lost_disk, lost);
+  EXPECT_EQ(s.pauses, 1);
+  EXPECT_GT(s.pause.end_utime, s.pause.start_utime);
+  EXPECT_EQ(s.written + s.lost_disk, offered);
+  const LogReadStats rs = read_stats(dir.path() / "p.lcm");
+  EXPECT_EQ(rs.events, s.written);
+  EXPECT_EQ(rs.garbage_bytes, 0);
+  EXPECT_EQ(rs.truncated_tail_bytes, 0);
+  const std::string j = read_text(dir.path() / "p.json");
+  for (const std::string& want :
+       {std::string("\"state\": \"stopped\""), std::string("\"paused\": null"),
+        "\"lost\": " + std::to_string(lost) + ", \"pauses\": [",
+        "\"IMU\": {\"events\": " + std::to_string(s.written) + ", \"bytes\": " +
+            std::to_string(s.written * 100) + ", \"dropped\": 0, \"lost_disk\": " +
+            std::to_string(lost) + "}",
+        "\"end_utime\": " + std::to_string(s.pause.end_utime)})
+    EXPECT_NE(j.find(want), std::string::npos) << want << "\n" << j;
+}
+
+TEST(SidecarFile, IsPaddedSoThatWithoutRoomForANewFileItIsRewrittenInPlace) {
+  TempDir dir;
+  const fs::path path = dir.path() / "s.json";
+  ASSERT_EQ(write_sidecar_file(path, "{\"a\": 1}\n"), "");
+  const auto size = fs::file_size(path);
+  EXPECT_EQ(size % 4096, 0u);
+  EXPECT_GE(size, 4096u + 9);
+  EXPECT_EQ(read_text(path).substr(0, 9), "{\"a\": 1}\n");
+  // No new file can be made (here: its name is taken by a directory; on a full disk: no space).
+  fs::create_directory(dir.path() / "s.json.tmp");
+  const std::string longer = "{\"a\": 2, \"b\": \"" + std::string(3000, 'x') + "\"}\n";
+  ASSERT_EQ(write_sidecar_file(path, longer), "");
+  EXPECT_EQ(fs::file_size(path), size) << "in place, no new bytes";
+  const std::string text = read_text(path);
+  EXPECT_EQ(text.substr(0, longer.size()), longer);
+  EXPECT_EQ(text.find_first_not_of(" \n", longer.size()), std::string::npos);
+  // Longer than the room left: it says so, and the old one stays whole.
+  const std::string err = write_sidecar_file(path, std::string(size + 10, ' '));
+  EXPECT_NE(err.find("no room left"), std::string::npos) << err;
+  EXPECT_EQ(read_text(path), text);
 }
 
 }  // namespace
