@@ -48,6 +48,7 @@ LogInput::~LogInput() {
 
 const LogEvent* LogInput::next() {
   const LogEvent* e = reader_->next();
+  while (e && e->channel.empty()) e = reader_->next();
   if (e && progress_.enabled() && size_ > 0)
     progress_.update(static_cast<double>(reader_->stats().read_up_to) / static_cast<double>(size_),
                      reader_->stats().events);
@@ -65,6 +66,12 @@ bool LogInput::finish(const std::string& done) {
   const auto ll = [](int64_t v) { return static_cast<long long>(v); };
   const char* prog = program_.c_str();
   const char* path = path_.c_str();
+  if (s.empty_channel_events > 0)
+    std::fprintf(stderr,
+                 "%s: %s: %lld event%s on an empty channel, skipped (legal in LCM; no channel to "
+                 "read %s by)\n",
+                 prog, path, ll(s.empty_channel_events), s.empty_channel_events == 1 ? "" : "s",
+                 s.empty_channel_events == 1 ? "it" : "them");
   if (s.truncated_tail_bytes > 0)
     std::fprintf(stderr,
                  "%s: warning: %s: read %lld events, then stopped at byte %lld of %lld (the log is "

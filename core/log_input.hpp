@@ -20,12 +20,16 @@ class LogInput {
   LogInput(const LogInput&) = delete;
   LogInput& operator=(const LogInput&) = delete;
 
-  // The next event in file order (valid until the next call), or nullptr at the end.
+  // The next event in file order (valid until the next call), or nullptr at the end. Events on an
+  // empty channel (legal in LCM, but nothing reads them by channel) are skipped, and counted in
+  // stats().empty_channel_events.
   const LogEvent* next();
   const LogReadStats& stats() const { return reader_->stats(); }
   int64_t size() const { return size_; }
 
-  // After the last event: ends the progress line, then warns on stderr, each only when it applies:
+  // After the last event: ends the progress line, then says on stderr, each only when it applies:
+  //   "<program>: <path>: N events on an empty channel, skipped (legal in LCM; no channel to read
+  //    them by)"
   //   "<program>: warning: <path>: read N events, then stopped at byte B of S (the log is cut
   //    short there: its last T bytes are an incomplete event); <done>"
   //   "<program>: warning: <path>: skipped G damaged bytes in R places and read on after them"

@@ -163,7 +163,7 @@ const LogEvent* LogReader::next() {
     const uint8_t* h = &buf_[begin_];
     const auto channel_len = static_cast<int32_t>(be32(h + 20));
     const auto data_len = static_cast<int32_t>(be32(h + 24));
-    if (channel_len < 1 || channel_len > kMaxChannelLength || data_len < 0 ||
+    if (channel_len < 0 || channel_len > kMaxChannelLength || data_len < 0 ||
         data_len > kMaxDataLength) {
       const Scan s = scan_to_magic(1);
       add_garbage(start, s.skipped);
@@ -208,6 +208,7 @@ const LogEvent* LogReader::next() {
     event_.offset = start;
     consume(size);
     ++stats_.events;
+    if (channel_len == 0) ++stats_.empty_channel_events;
     stats_.event_bytes += static_cast<int64_t>(size);
     return &event_;
   }

@@ -11,7 +11,7 @@
 // Every byte of the input ends up in exactly one of: an event returned, garbage skipped, or the
 // cut-short tail. The rules, in order, at an offset p where an event should start:
 //   - no magic word at p: the bytes up to the next magic word are garbage;
-//   - a header whose channel length is outside 1..kMaxChannelLength or whose data length is
+//   - a header whose channel length is outside 0..kMaxChannelLength or whose data length is
 //     outside 0..kMaxDataLength: the header is garbage, and reading resynchronises at the next
 //     magic word after p;
 //   - an event running past the end of the input: the end of the log is cut short (the tail),
@@ -24,6 +24,9 @@
 //     so this is the only sign), and it is garbage up to the next magic word after p. Damage
 //     that starts exactly at an event boundary, or in an event's magic word, therefore costs the
 //     event before it too.
+//
+// An empty channel name is legal in LCM (liblcm publishes and logs it): such an event is returned
+// like any other, and counted apart (empty_channel_events) for the tools that skip it.
 //
 // Memory: the reader holds one event at a time, in a buffer of chunk_bytes that grows only for
 // an event larger than that, to at most kMaxEventBytes + 4 bytes, and only for bytes that exist:
@@ -94,6 +97,7 @@ struct LogEvent {
 
 struct LogReadStats {
   int64_t events = 0;
+  int64_t empty_channel_events = 0;  // of those, on an empty channel (legal, but no tool reads them)
   int64_t event_bytes = 0;           // headers, channels and data of the events returned
   int64_t garbage_bytes = 0;         // skipped as damaged
   int64_t resyncs = 0;               // separate runs of garbage (places the log is damaged)

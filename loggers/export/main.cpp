@@ -189,10 +189,15 @@ int main(int argc, char** argv) {
     std::printf("%-20s %-12s %8lld messages -> %s.{%s}\n", ips::printable(channel).c_str(),
                 out.type.c_str(), static_cast<long long>(out.messages),
                 ips::printable(out.stem).c_str(), format == "both" ? "csv,jsonl" : format.c_str());
+  const int64_t empty_channel = log->stats().empty_channel_events;
+  const std::string empty_note =
+      empty_channel > 0 ? ", " + std::to_string(empty_channel) + " on an empty channel (skipped)"
+                        : "";
   std::printf("(%lld log events, %lld exported to %s, %lld outside --channels, %lld outside "
-              "--from/--to)\n",
-              static_cast<long long>(events), static_cast<long long>(exported), out_dir.c_str(),
-              static_cast<long long>(filtered_channel), static_cast<long long>(filtered_time));
+              "--from/--to%s)\n",
+              static_cast<long long>(events + empty_channel), static_cast<long long>(exported),
+              out_dir.c_str(), static_cast<long long>(filtered_channel),
+              static_cast<long long>(filtered_time), empty_note.c_str());
 
   if (log->size() == 0)
     std::fprintf(stderr, "%s: warning: %s is empty: nothing exported\n", kProgram, log_path.c_str());

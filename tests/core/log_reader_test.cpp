@@ -17,6 +17,8 @@
 #include <string>
 #include <vector>
 
+#include "core/log_input.hpp"
+
 namespace ips {
 namespace {
 
@@ -278,20 +280,68 @@ TEST(LogReader, HeaderWhoseLengthSwallowsTheNextEventIsGarbage) {
   expect_all_bytes_counted(r.stats, bytes.size());
 }
 
-TEST(LogReader, ChannelLengthsOutsideLcmsLimitAreGarbage) {
+TEST(LogReader, ChannelLengthsOutsideLcmsLimitAreGarbageAnEmptyChannelIsAnEvent) {
   const auto ok = event_bytes(0, 1, 63, 1, std::string(63, 'A'), {1});
   const auto too_long = event_bytes(1, 2, 64, 1, std::string(64, 'B'), {2});
-  const auto empty = event_bytes(2, 3, 0, 1, "", {3});
-  const auto last = event_bytes(3, 4, 1, 0, "Z", {});
+  const auto negative = event_bytes(2, 3, -1, 1, "", {3});
+  const auto empty = event_bytes(3, 4, 0, 1, "", {4});
+  const auto last = event_bytes(4, 5, 1, 0, "Z", {});
   std::vector<uint8_t> bytes = ok;
-  for (const auto* e : {&too_long, &empty, &last}) bytes.insert(bytes.end(), e->begin(), e->end());
+  for (const auto* e : {&too_long, &negative, &empty, &last})
+    bytes.insert(bytes.end(), e->begin(), e->end());
   const auto r = read_memory(bytes);
-  ASSERT_EQ(r.events.size(), 2u);
+  ASSERT_EQ(r.events.size(), 3u);
   EXPECT_EQ(r.events[0].channel, std::string(63, 'A'));
-  EXPECT_EQ(r.events[1].channel, "Z");
-  EXPECT_EQ(r.stats.garbage_bytes, static_cast<int64_t>(too_long.size() + empty.size()));
+  EXPECT_EQ(r.events[1].channel, "");
+  EXPECT_EQ(r.events[1].data, std::vector<uint8_t>{4});
+  EXPECT_EQ(r.events[2].channel, "Z");
+  EXPECT_EQ(r.stats.empty_channel_events, 1);
+  EXPECT_EQ(r.stats.garbage_bytes, static_cast<int64_t>(too_long.size() + negative.size()));
   EXPECT_EQ(r.stats.resyncs, 1);  // one damaged stretch
   expect_all_bytes_counted(r.stats, bytes.size());
+}
+
+// An empty channel name is legal LCM: liblcm's own writer logs it. The reader returns it as an
+// event; LogInput (what the tools read through) skips it, counts it and says so, not as damage.
+TEST(LogInput, EventsOnAnEmptyChannelAreCountedAndSkippedNotDamage) {
+  TempLog log;
+  {
+    lcm::LogFile w(log.path(), "w");
+    ASSERT_TRUE(w.good());
+    uint8_t payload[3] = {1, 2, 3};
+    int n = 0;
+    for (const char* channel : {"IMU", "", "IMU", "", "", "POSE"}) {
+      lcm::LogEvent e;
+      e.eventnum = n;
+      e.timestamp = 1000 + n++;
+      e.channel = channel;
+      e.datalen = sizeof payload;
+      e.data = payload;
+      ASSERT_EQ(w.writeEvent(&e), 0);
+    }
+  }
+  FILE* f = std::fopen(log.path().c_str(), "rb");
+  ASSERT_NE(f, nullptr);
+  FileLogSource source(f);
+  const auto all = read_all(source);
+  std::fclose(f);
+  EXPECT_EQ(all.events.size(), 6u);
+  EXPECT_EQ(all.stats.empty_channel_events, 3);
+  EXPECT_EQ(all.stats.garbage_bytes, 0);
+
+  auto in = LogInput::open("ips-test", log.path());
+  ASSERT_NE(in, nullptr);
+  std::vector<std::string> channels;
+  while (const LogEvent* e = in->next()) channels.push_back(e->channel);
+  EXPECT_EQ(channels, (std::vector<std::string>{"IMU", "IMU", "POSE"}));
+  testing::internal::CaptureStderr();
+  EXPECT_TRUE(in->finish("done"));
+  const std::string err = testing::internal::GetCapturedStderr();
+  EXPECT_EQ(err, "ips-test: " + log.path() +
+                     ": 3 events on an empty channel, skipped (legal in LCM; no channel to read "
+                     "them by)\n");
+  EXPECT_EQ(in->stats().garbage_bytes, 0);
+  EXPECT_EQ(in->stats().events, 6);
 }
 
 TEST(LogReader, LogCutAtEveryByteOfItsLastEventGivesTheEventsBeforeAndTheTail) {

@@ -34,7 +34,7 @@ std::vector<Seen> read_checked(std::span<const uint8_t> input, size_t chunk, siz
   int64_t next_free = 0, event_bytes = 0;
   while (const ips::LogEvent* e = reader.next()) {
     const size_t channel_len = e->channel.size();
-    check(channel_len >= 1 && channel_len <= ips::LogReader::kMaxChannelLength, "channel length");
+    check(channel_len <= ips::LogReader::kMaxChannelLength, "channel length");  // 0: legal
     check(e->size <= static_cast<size_t>(ips::LogReader::kMaxDataLength), "data length");
     check(e->offset >= next_free, "events overlap or go backwards");
     const size_t at = static_cast<size_t>(e->offset);

@@ -12,7 +12,8 @@
 #   - --dwell: a file (epoch ms, cm, header) with one interval equals --static-point over that
 #     interval; estimates outside are counted; the same on the log without TRUTH; a file whose
 #     intervals have no length or miss the log is a warning;
-#   - dwell-file errors: one line, status 2.
+#   - dwell-file errors: one line, status 2;
+#   - events on an empty channel: counted, skipped, not damage, the same scores.
 set -euo pipefail
 BIN=$(cd "$1" && pwd)
 HERE=$(cd "$(dirname "$0")" && pwd)
@@ -268,6 +269,24 @@ expect "^ips-eval: error: --dwell excludes --static-point" \
   "$BIN/ips-eval" "$LOG" --dwell "$WORK/dwell.csv" --static-point 1,1
 expect "^ips-eval: error: --dwell-columns, --dwell-time-unit and --dwell-unit need --dwell" \
   "$BIN/ips-eval" "$LOG" --dwell-unit cm
+
+# Events on an empty channel are legal LCM events: counted and skipped, not damage; the scores
+# are those of the log without them.
+python3 - "$LOG" "$WORK/empty_channel.lcm" <<'PY'
+import struct, sys
+data = open(sys.argv[1], 'rb').read()
+ev = lambda k: struct.pack('>IqqII', 0xEDA1DA01, 900000 + k, 0, 0, k) + bytes(k)
+open(sys.argv[2], 'wb').write(ev(0) + data + ev(1) + ev(8))
+PY
+status=0
+"$BIN/ips-eval" --json "$WORK/empty_channel.lcm" >"$WORK/empty_channel.json" 2>"$WORK/err" || status=$?
+if [ "$status" -eq 0 ] && [ "$(cat "$WORK/err")" = \
+  "ips-eval: $WORK/empty_channel.lcm: 3 events on an empty channel, skipped (legal in LCM; no channel to read them by)" ] &&
+  cmp -s "$WORK/all.json" "$WORK/empty_channel.json"; then
+  ok "empty channel: $(cat "$WORK/err")"
+else
+  fail "empty channel: status $status, stderr: $(cat "$WORK/err"), same scores: $(cmp -s "$WORK/all.json" "$WORK/empty_channel.json" && echo yes || echo no)"
+fi
 
 echo "$failures failure(s)"
 [ "$failures" -eq 0 ]

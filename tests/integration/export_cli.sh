@@ -2,7 +2,8 @@
 # ips-export on real files: a simulated lab log exported to CSV and JSON lines (headers, one row
 # per message per channel, every CSV rectangular, every JSON line valid with NaN as null), the
 # channel and time filters, and damaged inputs: a log cut short, garbage in the middle, a channel
-# of unknown type, an empty file, a text file, an output directory that cannot be created.
+# of unknown type, an empty file, a text file, an output directory that cannot be created; events
+# on an empty channel (legal LCM) counted and skipped, not damage.
 set -uo pipefail
 BIN=$(cd "$1" && pwd)
 export PYTHONPATH=$(cd "$(dirname "$0")" && pwd)  # lcm_log.py
@@ -152,6 +153,32 @@ PY
 if run 0 "$BIN/ips-export" "$WORK/foreign.lcm" --out "$WORK/foreign"; then
   grep -q "skipped 3 messages of no known type.*FOREIGN (3)" "$WORK/err" && [ ! -e "$WORK/foreign/FOREIGN.csv" ] &&
     ok "unknown type: $(cat "$WORK/err")" || fail "unknown type: $(cat "$WORK/err")"
+fi
+
+# Events on an empty channel are legal LCM events: counted and skipped, not damage.
+python3 - "$WORK/lab.lcm" "$WORK/empty_channel.lcm" <<'PY'
+import struct, sys
+data = open(sys.argv[1], 'rb').read()
+def event(n, ts, ch, payload):
+    ch = ch.encode()
+    return struct.pack('>IqqII', 0xEDA1DA01, n, ts, len(ch), len(payload)) + ch + payload
+i, cut = 0, len(data) // 2
+while i < cut:  # to the event boundary after the middle
+    cl, dl = struct.unpack('>II', data[i + 20:i + 28])
+    i += 28 + cl + dl
+extra = b''.join(event(200000 + k, 1767225600000000 + k, '', bytes(range(k * 10))) for k in range(3))
+open(sys.argv[2], 'wb').write(data[:i] + extra + data[i:])
+PY
+if run 0 "$BIN/ips-export" "$WORK/empty_channel.lcm" --out "$WORK/empty_channel"; then
+  count_events "$WORK/lab.lcm" >"$WORK/want"
+  check_files "$WORK/empty_channel" | awk '{ print $1, $3 }' >"$WORK/got"
+  if grep -q "empty_channel.lcm: 3 events on an empty channel, skipped" "$WORK/err" &&
+    ! grep -q "damaged\|cut short\|warning" "$WORK/err" &&
+    grep -q "3 on an empty channel (skipped)" "$WORK/out" && diff "$WORK/want" "$WORK/got" >/dev/null; then
+    ok "empty channel: $(cat "$WORK/err")"
+  else
+    fail "empty channel: stderr: $(cat "$WORK/err"); stdout: $(tail -1 "$WORK/out"); $(diff "$WORK/want" "$WORK/got" | head -3)"
+  fi
 fi
 
 # 5. Errors: one line, status 2.
