@@ -21,6 +21,8 @@
 namespace ips {
 
 namespace {
+constexpr int kShadowQueueMessages = 200000;
+
 int64_t big_endian_i64(const void* data) {
   const auto* b = static_cast<const uint8_t*>(data);
   uint64_t v = 0;
@@ -119,14 +121,17 @@ void Node::subscribe_raw(const std::string& channel, RawHandler handler) {
   // 0 lifts the limit (liblcm's own meaning of a capacity <= 0).
   sub->setQueueCapacity(opts_.lcm_queue);
   if (!watch) return;
-  // The shadow: same channels, a queue four times longer, counting only. liblcm enqueues a
-  // message when any subscription has room and hands it to each that had, so while the shadow
-  // has room every message the real queue dropped is seen here and not there.
+  // The shadow: same channels, a longer queue (4x, at least kShadowQueueMessages), counting
+  // only. liblcm enqueues a message when any subscription has room and hands it to each that
+  // had, so while the shadow has room every message the real queue dropped is seen here and not
+  // there. (Its room is memory liblcm holds only while this process is that far behind.)
   lcm::Subscription* shadow = lcm_->subscribeFunction(
       channel, +[](const lcm::ReceiveBuffer*, const std::string&, QueueWatch* w) { ++w->seen; },
       watch);
   if (shadow)
-    shadow->setQueueCapacity(opts_.lcm_queue > INT32_MAX / 4 ? 0 : opts_.lcm_queue * 4);
+    shadow->setQueueCapacity(opts_.lcm_queue > INT32_MAX / 4
+                                 ? 0
+                                 : std::max(opts_.lcm_queue * 4, kShadowQueueMessages));
 }
 
 void Node::count_sequence(const lcm::ReceiveBuffer* rbuf) {
