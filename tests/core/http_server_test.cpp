@@ -567,6 +567,7 @@ TEST(DecideSlot, StatsText) {
 
 TEST(HttpServer, ANewConnectionEvictsTheLongestIdleWhenAllAreTaken) {
   HttpServerOptions o = any_port();
+  o.header_timeout_s = 60;  // only eviction here, however slow the machine
   o.max_connections = 2;
   Fixture f(o);
   f.server.route("GET", "/", page);
@@ -601,6 +602,7 @@ TEST(HttpServer, ANewConnectionEvictsTheLongestIdleWhenAllAreTaken) {
 
 TEST(HttpServer, ConnectionsOverTheLimitAre503WhenNoneCanBeEvicted) {
   HttpServerOptions o = any_port();
+  o.header_timeout_s = 60;  // only eviction here, however slow the machine
   o.max_connections = 2;
   Fixture f(o);
   f.server.stream("/events", [](HttpServer::StreamId) {});
@@ -625,6 +627,7 @@ TEST(HttpServer, ConnectionsOverTheLimitAre503WhenNoneCanBeEvicted) {
 
 TEST(HttpServer, APeerOverItsLimitEvictsItsOwnNotAnothers) {
   HttpServerOptions o = any_port();
+  o.header_timeout_s = 60;  // only eviction here, however slow the machine
   o.max_connections = 8;
   o.max_connections_per_peer = 2;
   Fixture f(o);
@@ -710,6 +713,7 @@ TEST(HttpServer, HeaderTimeoutDoesNotCutAnIdleKeptAliveConnection) {
 
 TEST(HttpServer, AFloodOfIdleConnectionsFromOtherPeersDoesNotStarveAClient) {
   HttpServerOptions o = any_port();
+  o.header_timeout_s = 60;  // only eviction here, however slow the machine
   o.max_connections = 8;
   o.max_connections_per_peer = 4;
   Fixture f(o);
