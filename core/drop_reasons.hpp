@@ -19,6 +19,7 @@ enum class DropReason : uint8_t {
   kUnknownAnchor,            // an anchor the site does not have (or has disabled, or of another kind)
   kInvalid,                  // NaN/inf or absurd value, implausible time stamp, empty id
   kLate,                     // late or out of order beyond the reorder tolerance
+  kTimeJump,                 // a stamp far from its sender's timeline, refuted (core/time_guard.hpp)
   kDuplicate,                // a second report of the same thing
   kGap,                      // after a gap too long to integrate over
   kTooManyTags,              // a new tag while max_tags are tracked
@@ -46,6 +47,7 @@ constexpr std::string_view drop_reason_text(DropReason r) {
     case DropReason::kUnknownAnchor: return "unknown anchor";
     case DropReason::kInvalid: return "invalid";
     case DropReason::kLate: return "late or out of order";
+    case DropReason::kTimeJump: return "time stamp far from its sender's";
     case DropReason::kDuplicate: return "duplicate";
     case DropReason::kGap: return "after a gap";
     case DropReason::kTooManyTags: return "beyond max_tags";

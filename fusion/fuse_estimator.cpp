@@ -1,11 +1,14 @@
 #include "fusion/fuse_estimator.hpp"
 
+#include <cstdio>
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
 
 #include "core/geometry.hpp"
 #include "core/multilateration.hpp"
+#include "core/text_escape.hpp"
 #include "estimators/aoa/models/aoa_bearing.hpp"
 #include "estimators/uwb_twr/models/uwb_range.hpp"
 #include "fusion/models/height.hpp"
@@ -46,7 +49,7 @@ FuseParams parse_fuse_params(const YamlField& s) {
                 "nlos_downweight_sigma", "accel_psd", "displacement", "gyro_turns", "displacement_sigma_per_m",
                 "displacement_sigma_min_m", "heading_bias_sigma_deg",
                 "heading_bias_walk_deg_per_sqrt_s", "start_sigma_m", "height_gate_sigma",
-                "pose_gate_sigma", "pose_cov_scale", "epoch_window_s", "max_delay_s", "reinit_after_rejections",
+                "pose_gate_sigma", "pose_cov_scale", "epoch_window_s", "max_delay_s", "max_gap_s", "reinit_after_rejections",
                 "publish_period_s", "max_tags"});
   p.force_3d = s.get_bool("force_3d", p.force_3d);
   p.range_sigma_m = s.get_double_in("range_sigma_m", p.range_sigma_m, 1e-4, 100);
@@ -79,6 +82,7 @@ FuseParams parse_fuse_params(const YamlField& s) {
   p.pose_cov_scale = s.get_double_in("pose_cov_scale", p.pose_cov_scale, 0.01, 1e6);
   p.epoch_window_s = s.get_double_in("epoch_window_s", p.epoch_window_s, 0.001, 60);
   p.max_delay_s = s.get_double_in("max_delay_s", p.max_delay_s, 0, 60);
+  p.max_gap_s = s.get_double_in("max_gap_s", p.max_gap_s, 0.1, 3600);
   p.reinit_after_rejections =
       static_cast<int>(s.get_int_in("reinit_after_rejections", p.reinit_after_rejections, 1,
                                     1000000));
@@ -129,16 +133,56 @@ bool FuseEstimator::planar_for(const std::string& tag_id) const {
   return !params_.force_3d && std::isfinite(tag_height(tag_id));
 }
 
-FuseEstimator::Track* FuseEstimator::track_for(const std::string& tag_id, utime_t t) {
-  ++stats_.messages_in;
+template <class Again>
+FuseEstimator::Track* FuseEstimator::track_for(const std::string& tag_id, utime_t t,
+                                               Again&& again) {
   if (!site_) {
+    ++stats_.messages_in;
     ++stats_.dropped_no_site;
     return nullptr;
   }
   if (tag_id.empty() || !plausible_utime(t)) {
+    ++stats_.messages_in;
     ++stats_.dropped_invalid;
     return nullptr;
   }
+  // A stamp far from the tag's timeline is held until confirmed (never the tag's newest); a
+  // confirmed jump back in time starts the track afresh.
+  if (!guard_.admit(tag_id, t, std::forward<Again>(again), [&] { restart_track(tag_id); }))
+    return nullptr;
+  return find_or_add_track(tag_id, t);
+}
+
+FuseEstimator::Track* FuseEstimator::track_for_checked(const std::string& tag_id, utime_t t,
+                                                       int64_t hosted_reanchors_back,
+                                                       int64_t& seen_reanchors_back) {
+  // The hosted estimator's guard went back in time since its last epoch: so does the tag.
+  const bool went_back = hosted_reanchors_back != seen_reanchors_back;
+  seen_reanchors_back = hosted_reanchors_back;
+  if (!guard_.note(tag_id, t, went_back)) {
+    ++stats_.messages_in;
+    ++stats_.dropped_late;  // old work handed over late (a blink closed after a silence)
+    return nullptr;
+  }
+  if (went_back) restart_track(tag_id);
+  guard_.release();  // the tag's messages held meanwhile that this stamp confirmed
+  return find_or_add_track(tag_id, t);
+}
+
+void FuseEstimator::restart_track(const std::string& tag_id) {
+  // Time went back: nothing the track holds is of the new timeline. Its tally stays, so that the
+  // next pose is flagged REINITIALISED.
+  auto it = tracks_.find(tag_id);
+  if (it == tracks_.end()) return;
+  Track fresh;
+  fresh.tally = it->second.tally;
+  fresh.ever_started = it->second.ever_started;
+  fresh.absolute_seen = it->second.absolute_seen;
+  it->second = std::move(fresh);
+}
+
+FuseEstimator::Track* FuseEstimator::find_or_add_track(const std::string& tag_id, utime_t t) {
+  ++stats_.messages_in;
   auto it = tracks_.find(tag_id);
   if (it == tracks_.end()) {
     if (static_cast<int>(tracks_.size()) >= params_.max_tags) {
@@ -148,9 +192,24 @@ FuseEstimator::Track* FuseEstimator::track_for(const std::string& tag_id, utime_
     it = tracks_.try_emplace(tag_id).first;
   }
   Track& track = it->second;
-  // A start pose in the site wins over everything else.
+  if (track.initialised && t - track.newest > s_to_utime(params_.max_gap_s)) {
+    // Nothing of the tag for longer than any coasting can bridge (the process stopped, the
+    // machine swapped, the tag out of reach): extrapolating across would publish a confident
+    // guess. The track starts afresh from the next fix, its first pose flagged REINITIALISED.
+    track.initialised = false;
+    track.history.clear();
+    track.snapshots.clear();
+    track.init_ranges.clear();
+    track.have_last_dr = false;
+    ++stats_.gap_restarts;
+    char text[160];
+    std::snprintf(text, sizeof text, "%.1f s without input, track restarted from fresh measurements",
+                  utime_to_s(t - track.newest));
+    last_gap_ = printable(tag_id) + ": " + text;
+  }
+  // A start pose in the site wins over everything else, for the first start.
   const Tag* tag = site_->find_tag(tag_id);
-  if (!track.initialised && tag && tag->has_start()) {
+  if (!track.initialised && !track.ever_started && tag && tag->has_start()) {
     Eigen::Vector3d p = tag->start_position;
     if (!std::isfinite(p.z())) p.z() = std::isfinite(tag->height_m) ? tag->height_m : 0.0;
     start(tag_id, track, t, p, params_.start_sigma_m);
@@ -177,6 +236,7 @@ void FuseEstimator::start(const std::string& tag_id, Track& t, utime_t time,
   }
   if (t.initialised) ++stats_.restarts;
   t.initialised = true;
+  t.ever_started = true;
   t.state = Snapshot{time, time, f, time, 0};
   t.base = t.state;
   t.history.clear();
@@ -383,6 +443,7 @@ void FuseEstimator::add(const std::string& tag_id, Track& t, Measurement m) {
     return;
   }
   t.newest = std::max(t.newest, m.t);
+  if (m.kind != Measurement::Kind::kDisplacement) t.absolute_seen = true;
   // In time order into the history.
   auto pos = std::upper_bound(t.history.begin(), t.history.end(), m.t,
                               [](utime_t v, const Measurement& h) { return v < h.t; });
@@ -468,7 +529,7 @@ bool FuseEstimator::accept_displacement(Track& t, DisplacementSource src) {
 }
 
 void FuseEstimator::on_range(const uwb_range_t& m) {
-  Track* t = track_for(m.tag_id, m.utime);
+  Track* t = track_for(m.tag_id, m.utime, [this, m] { on_range(m); });
   if (!t) return;
   if (!std::isfinite(m.range_m) || m.range_m < 0 || m.range_m > kMaxRangeM) {
     ++stats_.dropped_invalid;
@@ -502,6 +563,7 @@ DropReasons FuseEstimator::drop_reasons() const {
   d.add(DropReason::kInvalid, s.dropped_invalid);
   d.add(DropReason::kUnknownAnchor, s.dropped_unknown_anchor);
   d.add(DropReason::kLate, s.dropped_late);
+  d.add(DropReason::kTimeJump, guard_.dropped());
   d.add(DropReason::kTooManyTags, s.dropped_too_many_tags);
   d.add(DropReason::kOtherSource, s.dropped_other_source);
   d.add(DropReason::kSuperseded, s.poses_superseded);
@@ -534,7 +596,8 @@ void FuseEstimator::on_rx(const uwb_rx_t& m) {
 }
 
 void FuseEstimator::on_tdoa_epoch(const uwb_tdoa::TdoaEpoch& e) {
-  Track* t = track_for(*e.tag_id, e.utime);
+  Track* t = track_for_checked(*e.tag_id, e.utime, tdoa_.time_stats().reanchors_back,
+                               tdoa_reanchors_back_);
   // A blink says where the tag is only relative to the anchors' hyperboloids: the track starts
   // from something else (ranges, a start pose, POSE_TDOA, or the hosted tracker's fix from the
   // blinks: on_hosted_fix, right after this).
@@ -566,7 +629,8 @@ void FuseEstimator::on_aoa(const ble_aoa_t& m) {
 }
 
 void FuseEstimator::on_aoa_epoch(const aoa::AoaEpochAngles& e) {
-  Track* t = track_for(*e.tag_id, e.utime);
+  Track* t = track_for_checked(*e.tag_id, e.utime, aoa_.time_stats().reanchors_back,
+                               aoa_reanchors_back_);
   // Angles start no track here: the hosted tracker's fix from them does (on_hosted_fix), as
   // POSE_AOA can.
   if (!t || !t->initialised || e.picked->empty()) return;
@@ -599,7 +663,7 @@ void FuseEstimator::on_hosted_fix(const pose_t& m) {
 }
 
 void FuseEstimator::on_dead_reckoning(const pose_t& m, DisplacementSource src, uint32_t bit) {
-  Track* t = track_for(m.tag_id, m.utime);
+  Track* t = track_for(m.tag_id, m.utime, [this, m, src, bit] { on_dead_reckoning(m, src, bit); });
   if (!t) return;
   if (!finite_position(m)) {
     ++stats_.dropped_invalid;
@@ -616,8 +680,9 @@ void FuseEstimator::on_dead_reckoning(const pose_t& m, DisplacementSource src, u
     t->last_dr_t = m.utime;
     t->last_dr_position = p;
     // Its first position starts the track when nothing else has (001: the module starts where
-    // the walk does).
-    if (!t->initialised) start(m.tag_id, *t, m.utime, p, params_.start_sigma_m);
+    // the walk does); after a gap, only a track that never had a fix of the site's frame.
+    if (!t->initialised && (!t->ever_started || !t->absolute_seen))
+      start(m.tag_id, *t, m.utime, p, params_.start_sigma_m);
     return;
   }
   Measurement d;
@@ -629,8 +694,8 @@ void FuseEstimator::on_dead_reckoning(const pose_t& m, DisplacementSource src, u
   t->dr_bit = bit;
   t->last_dr_t = m.utime;
   t->last_dr_position = p;
-  if (!t->initialised) start(m.tag_id, *t, m.utime, p, params_.start_sigma_m);
-  else add(m.tag_id, *t, d);
+  if (t->initialised) add(m.tag_id, *t, d);
+  else if (!t->ever_started || !t->absolute_seen) start(m.tag_id, *t, m.utime, p, params_.start_sigma_m);
 }
 
 void FuseEstimator::on_ins_module(const pose_t& m) {
@@ -642,7 +707,7 @@ void FuseEstimator::on_pose_ins(const pose_t& m) {
 }
 
 void FuseEstimator::on_step(const step_t& m) {
-  Track* t = track_for(m.tag_id, m.utime);
+  Track* t = track_for(m.tag_id, m.utime, [this, m] { on_step(m); });
   if (!t) return;
   if (!std::isfinite(m.length_m) || m.length_m < 0 || m.length_m > 5 ||
       !std::isfinite(m.heading_rad)) {
@@ -679,7 +744,7 @@ void FuseEstimator::on_step(const step_t& m) {
 }
 
 void FuseEstimator::on_altitude(const altitude_t& m) {
-  Track* t = track_for(m.tag_id, m.utime);
+  Track* t = track_for(m.tag_id, m.utime, [this, m] { on_altitude(m); });
   if (!t) return;
   if (!std::isfinite(m.height_m) || std::abs(m.height_m) > kMaxCoordinateM ||
       !(m.height_std_m > 0) || !std::isfinite(m.height_std_m)) {
@@ -697,7 +762,7 @@ void FuseEstimator::on_altitude(const altitude_t& m) {
 
 void FuseEstimator::on_imu(const imu_t& m) {
   if (!params_.gyro_turns) return;
-  Track* t = track_for(m.device_id, m.utime);
+  Track* t = track_for(m.device_id, m.utime, [this, m] { on_imu(m); });
   if (!t) return;
   const Eigen::Vector3d gyro(m.gyro[0], m.gyro[1], m.gyro[2]);
   const Eigen::Vector3d accel(m.accel[0], m.accel[1], m.accel[2]);
@@ -709,7 +774,7 @@ void FuseEstimator::on_imu(const imu_t& m) {
 }
 
 void FuseEstimator::on_pose(const pose_t& m, const std::string& kind) {
-  Track* t = track_for(m.tag_id, m.utime);
+  Track* t = track_for(m.tag_id, m.utime, [this, m, kind] { on_pose(m, kind); });
   if (!t) return;
   const bool horizontal_only = (m.status & pose_t::STATUS_2D) != 0;
   const auto cov = pose_covariance(m, horizontal_only);

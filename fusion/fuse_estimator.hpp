@@ -43,6 +43,7 @@
 #include "core/drop_reasons.hpp"
 #include "core/pose_tally.hpp"
 #include "core/site.hpp"
+#include "core/time_guard.hpp"
 #include "estimators/aoa/aoa_estimator.hpp"
 #include "estimators/uwb_tdoa/tdoa_estimator.hpp"
 #include "fusion/fuse_filter.hpp"
@@ -76,6 +77,9 @@ struct FuseParams {
   double pose_cov_scale = 3.0;
   double epoch_window_s = 0.6;    // ranges this close form a multilateration start
   double max_delay_s = 1.0;       // late messages up to this far behind are fused in order
+  // Nothing of a tag for longer than this (the process was stopped, the machine swapped, the
+  // tag out of reach): its track starts afresh from the next fix instead of coasting across.
+  double max_gap_s = 3.0;
   int reinit_after_rejections = 12;
   double publish_period_s = 0.1;
   int max_tags = 1000;
@@ -111,6 +115,7 @@ struct FuseStats {
   int64_t initialisations = 0;
   int64_t hosted_starts = 0;  // of those, from the hosted TDoA/AoA trackers (blinks or angles only)
   int64_t restarts = 0;
+  int64_t gap_restarts = 0;  // tracks started afresh after more than max_gap_s without input
   int64_t poses_out = 0;
 };
 
@@ -142,6 +147,12 @@ class FuseEstimator {
   void on_pose(const pose_t& m, const std::string& kind);
 
   const FuseStats& stats() const { return stats_; }
+  // The last restart after a gap, in words ("T1: 9.6 s without input, ..."); "" before one.
+  const std::string& last_gap() const { return last_gap_; }
+  // Time plausibility of the inputs, per tag (core/time_guard.hpp).
+  const TimeGuardStats& time_stats() const { return guard_.stats(); }
+  // The newest time of the angles taken (0 before the first): ips-fuse's epoch flush runs from it.
+  utime_t newest_angle_utime() const { return aoa_.newest_event_utime(); }
   // The UWB_RX side: ips-uwb-tdoa's blink grouping and clock synchronisation counters.
   const uwb_tdoa::TdoaStats& tdoa_stats() const { return tdoa_.stats(); }
   // The BLE_AOA side: ips-aoa's calibration and grouping counters.
@@ -195,6 +206,8 @@ class FuseEstimator {
   };
   struct Track {
     bool initialised = false;
+    bool ever_started = false;   // a gap's restart takes no site start pose
+    bool absolute_seen = false;  // ... nor, after a fix in the site's frame, a dead-reckoning one
     Snapshot state;
     Snapshot base;                    // the state before the history's first message
     std::deque<Measurement> history;  // fused, in time order, the last max_delay_s
@@ -214,7 +227,19 @@ class FuseEstimator {
     std::vector<std::string> pose_kinds;
   };
 
-  Track* track_for(const std::string& tag_id, utime_t t);
+  // The tag's track for a message of time `t`, or nullptr when the message is not to be used now
+  // (counted; or held by the time guard, which hands it over again through `again` when its
+  // stamp is confirmed). A restart after a gap happens here.
+  template <class Again>
+  Track* track_for(const std::string& tag_id, utime_t t, Again&& again);
+  // For the hosted estimators' epochs, whose stamps their own guards checked: never held; a stale
+  // one is dropped; when the hosted guard went back in time (its reanchors_back moved on from
+  // `seen`), so does the tag's track.
+  Track* track_for_checked(const std::string& tag_id, utime_t t, int64_t hosted_reanchors_back,
+                           int64_t& seen_reanchors_back);
+  // Time went back for the tag: its track starts afresh (flagged REINITIALISED when it does).
+  void restart_track(const std::string& tag_id);
+  Track* find_or_add_track(const std::string& tag_id, utime_t t);
   bool planar_for(const std::string& tag_id) const;
   double tag_height(const std::string& tag_id) const;
   void add(const std::string& tag_id, Track& t, Measurement m);
@@ -247,7 +272,10 @@ class FuseEstimator {
   aoa::AoaEstimator aoa_;
   std::vector<aoa::AnchorFrame> frames_;  // per site anchor
   std::map<std::string, Track> tracks_;
+  TimeGuard guard_;  // per tag
+  int64_t tdoa_reanchors_back_ = 0, aoa_reanchors_back_ = 0;  // the hosted guards', seen
   FuseStats stats_;
+  std::string last_gap_;
 };
 
 }  // namespace ips::fusion

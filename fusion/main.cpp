@@ -39,7 +39,16 @@ int main(int argc, char** argv) {
     ips::provide_site(node, [&](const ips::Site& site) { est.set_site(site); });
     // Inputs that were not fused, by reason, in HEALTH (drops, last_error) once a second.
     ips::DropHealth drop_health;
-    node.add_timer(1.0, [&] { drop_health.report(node, est.drop_reasons()); });
+    int64_t gap_restarts = 0;
+    node.add_timer(1.0, [&] {
+      drop_health.report(node, est.drop_reasons());
+      // A track restarted after a gap (the process stopped, the machine swapped, the tag out of
+      // reach): said in HEALTH, the pose flagged REINITIALISED.
+      if (est.stats().gap_restarts > gap_restarts) {
+        gap_restarts = est.stats().gap_restarts;
+        node.report_error(est.last_gap());
+      }
+    });
     node.subscribe<ips::uwb_range_t>(opts.channel(ips::channel::kUwbRange),
                                      [&](const ips::uwb_range_t& m, const std::string&) {
                                        est.on_range(m);
@@ -53,12 +62,12 @@ int main(int argc, char** argv) {
     ips::utime_t last_aoa_utime = 0, last_aoa_host = 0;
     node.subscribe<ips::ble_aoa_t>(opts.channel(ips::channel::kBleAoa),
                                    [&](const ips::ble_aoa_t& m, const std::string&) {
-                                     if (ips::plausible_utime(m.utime) &&
-                                         m.utime > last_aoa_utime) {
-                                       last_aoa_utime = m.utime;
+                                     est.on_aoa(m);
+                                     // The newest time taken (a stamp far ahead is not).
+                                     if (est.newest_angle_utime() != last_aoa_utime) {
+                                       last_aoa_utime = est.newest_angle_utime();
                                        last_aoa_host = ips::wall_utime_now();
                                      }
-                                     est.on_aoa(m);
                                    });
     node.add_timer(0.02, [&] {
       if (last_aoa_utime != 0)

@@ -108,6 +108,11 @@ void AltitudeEstimator::on_baro(const baro_t& m) {
     ++stats_.dropped_invalid;
     return;
   }
+  // A stamp far from the sensor's timeline waits for confirmation (core/time_guard.hpp).
+  if (!guard_.admit(m.sensor_id, m.utime, [this, m] { on_baro(m); }, [] {})) {
+    --stats_.readings_in;  // counted when handed over again, or dropped as a time jump
+    return;
+  }
   const auto offset = params_.offsets_pa.find(m.sensor_id);
   const double pressure = m.pressure_pa - (offset == params_.offsets_pa.end() ? 0 : offset->second);
   if (m.utime > newest_utime_) newest_utime_ = m.utime;

@@ -25,6 +25,7 @@
 
 #include "core/cv_filter.hpp"
 #include "core/drop_reasons.hpp"
+#include "core/time_guard.hpp"
 #include "core/site.hpp"
 #include "estimators/altitude/floor_detector.hpp"
 #include "estimators/altitude/reference_series.hpp"
@@ -102,7 +103,13 @@ class AltitudeEstimator {
   void finish();
 
   const AltitudeStats& stats() const { return stats_; }
-  DropReasons drop_reasons() const { return stats_.drop_reasons(); }
+  DropReasons drop_reasons() const {
+    DropReasons d = stats_.drop_reasons();
+    d.add(DropReason::kTimeJump, guard_.dropped());
+    return d;
+  }
+  // Time plausibility of the inputs, per sender (core/time_guard.hpp).
+  const TimeGuardStats& time_stats() const { return guard_.stats(); }
   const AltitudeParams& params() const { return params_; }
   // The latest reference problem, e.g. "reference B1 stale: its newest reading is 12.3 s older
   // than T1's"; empty when there was none. Cleared by take_problem().
@@ -149,6 +156,7 @@ class AltitudeEstimator {
   std::map<std::string, Station> stations_;
   utime_t newest_utime_ = 0;  // message time: the newest reading of any sensor
   AltitudeStats stats_;
+  TimeGuard guard_;  // per sender (core/time_guard.hpp)
   std::string problem_;
 };
 

@@ -150,6 +150,12 @@ void AoaEstimator::on_event(const ble_aoa_t& m) {
     ++stats_.dropped_invalid;
     return;
   }
+  // A stamp far from its anchor's timeline waits for confirmation (core/time_guard.hpp); an
+  // anchor whose clock went back restarts the tags' tracks.
+  if (!guard_.admit(m.anchor_id, m.utime, [this, m] { on_event(m); }, [this] { tracks_.clear(); })) {
+    --stats_.events_in;  // counted when handed over again, or dropped as a time jump
+    return;
+  }
   size_t index = 0;
   while (index < site_->anchors.size() && site_->anchors[index].id != m.anchor_id) ++index;
   if (index == site_->anchors.size() || !usable_[index]) {

@@ -24,6 +24,7 @@
 
 #include "core/cv_filter.hpp"
 #include "core/drop_reasons.hpp"
+#include "core/time_guard.hpp"
 #include "core/pose_tally.hpp"
 #include "core/site.hpp"
 #include "estimators/aoa/aoa_calibration.hpp"
@@ -146,7 +147,15 @@ class AoaEstimator {
   void finish();
 
   const AoaStats& stats() const { return stats_; }
-  DropReasons drop_reasons() const { return stats_.drop_reasons(); }
+  DropReasons drop_reasons() const {
+    DropReasons d = stats_.drop_reasons();
+    d.add(DropReason::kTimeJump, guard_.dropped());
+    return d;
+  }
+  // Time plausibility of the events, per anchor (core/time_guard.hpp).
+  const TimeGuardStats& time_stats() const { return guard_.stats(); }
+  // The newest event time taken (0 before the first): a live process closes epochs from it.
+  utime_t newest_event_utime() const { return guard_.newest(); }
   const AoaParams& params() const { return params_; }
   // Overrides the site's method/solver (ips-aoa --method, comparisons); kept across set_site.
   void override_method(AoaMethod method, std::optional<AoaSolver> solver = std::nullopt);
@@ -216,6 +225,7 @@ class AoaEstimator {
   int64_t order_ = 0;
   std::vector<AoaEvent> picked_;  // scratch
   AoaStats stats_;
+  TimeGuard guard_;  // per anchor
 };
 
 }  // namespace ips::aoa

@@ -49,8 +49,9 @@ int main(int argc, char** argv) {
     node.subscribe<ips::ble_aoa_t>(
         opts.channel(ips::channel::kBleAoa), [&](const ips::ble_aoa_t& m, const std::string&) {
           est.on_event(m);
-          if (ips::plausible_utime(m.utime) && m.utime > last_event_utime) {
-            last_event_utime = m.utime;
+          // The newest time the estimator took (a stamp far ahead is not taken: time_guard.hpp).
+          if (est.newest_event_utime() != last_event_utime) {
+            last_event_utime = est.newest_event_utime();
             last_event_host = ips::wall_utime_now();
           }
         });

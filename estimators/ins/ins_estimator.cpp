@@ -103,6 +103,13 @@ void InsEstimator::on_imu(const imu_t& m) {
     ++stats_.dropped_invalid;
     return;
   }
+  // A stamp far from the device's timeline waits for confirmation (core/time_guard.hpp); a clock
+  // that went back restarts the device's track.
+  if (!guard_.admit(m.device_id, m.utime, [this, m] { on_imu(m); },
+                    [this, &m] { tracks_.erase(m.device_id); })) {
+    --stats_.samples_in;  // counted when handed over again, or dropped as a time jump
+    return;
+  }
   auto it = tracks_.find(m.device_id);
   if (it == tracks_.end()) {
     if (static_cast<int>(tracks_.size()) >= params_.max_tags) {

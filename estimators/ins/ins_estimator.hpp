@@ -21,6 +21,7 @@
 #include <string>
 
 #include "core/drop_reasons.hpp"
+#include "core/time_guard.hpp"
 #include "core/pose_tally.hpp"
 #include "core/site.hpp"
 #include "estimators/ins/stance_detector.hpp"
@@ -102,7 +103,13 @@ class InsEstimator {
   void on_imu(const imu_t& msg);
 
   const InsStats& stats() const { return stats_; }
-  DropReasons drop_reasons() const { return stats_.drop_reasons(); }
+  DropReasons drop_reasons() const {
+    DropReasons d = stats_.drop_reasons();
+    d.add(DropReason::kTimeJump, guard_.dropped());
+    return d;
+  }
+  // Time plausibility of the inputs, per sender (core/time_guard.hpp).
+  const TimeGuardStats& time_stats() const { return guard_.stats(); }
   const InsParams& params() const { return params_; }
   std::optional<InsTrackSummary> track(const std::string& tag_id) const;
 
@@ -148,6 +155,7 @@ class InsEstimator {
   InsParams params_;
   std::map<std::string, Track> tracks_;
   InsStats stats_;
+  TimeGuard guard_;  // per sender (core/time_guard.hpp)
 };
 
 }  // namespace ips::ins

@@ -24,6 +24,7 @@
 #include <string>
 
 #include "core/drop_reasons.hpp"
+#include "core/time_guard.hpp"
 #include "core/site.hpp"
 #include "estimators/pdr/orientation_ekf.hpp"
 #include "estimators/pdr/step_detector.hpp"
@@ -98,7 +99,13 @@ class PdrEstimator {
   bool has_site() const { return site_.has_value(); }
   void on_imu(const imu_t& m);
   const PdrStats& stats() const { return stats_; }
-  DropReasons drop_reasons() const { return stats_.drop_reasons(); }
+  DropReasons drop_reasons() const {
+    DropReasons d = stats_.drop_reasons();
+    d.add(DropReason::kTimeJump, guard_.dropped());
+    return d;
+  }
+  // Time plausibility of the inputs, per sender (core/time_guard.hpp).
+  const TimeGuardStats& time_stats() const { return guard_.stats(); }
   const PdrParams& params() const { return params_; }
 
  private:
@@ -133,6 +140,7 @@ class PdrEstimator {
   PdrParams params_;
   std::map<std::string, Track> tracks_;
   PdrStats stats_;
+  TimeGuard guard_;  // per sender (core/time_guard.hpp)
 };
 
 }  // namespace ips::pdr

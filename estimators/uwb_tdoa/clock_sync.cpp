@@ -112,11 +112,10 @@ void ClockSync::on_master_record(const uwb_rx_t& m) {
   const utime_t window = s_to_utime(params_.match_window_s);
   if (newest_master_utime_ != 0 &&
       m.utime < newest_master_utime_ - std::max(window, s_to_utime(1.0))) {
-    // Host time went back further than any reordering explains (a replay restarted, a clock
-    // step): intervals measured across it would be nonsense.
-    ++stats_.time_resets;
-    reset_clocks();
-    newest_master_utime_ = 0;
+    // Further back than any reordering explains: one stale or bogus stamp, dropped (a real step
+    // back of the host clock is confirmed by the caller's time guard, which calls restart()).
+    ++stats_.dropped_late;
+    return;
   }
   for (const auto& r : master_records_) {
     if (r.seq == m.seq && std::llabs(r.utime - m.utime) <= window) {

@@ -92,6 +92,12 @@ class ClockSync {
   // An is_sync record (anchor_id, sender_id, seq, rx_counter valid; counter_hz checked by the
   // caller). Records of other anchors than the configured ones are the caller's to filter.
   void on_sync(const uwb_rx_t& m, double counter_hz);
+  // Host time went back (the caller's time guard confirmed it): every clock starts again.
+  void restart() {
+    ++stats_.time_resets;
+    reset_clocks();
+    newest_master_utime_ = 0;
+  }
 
   // Index of an enabled uwb_tdoa anchor, or -1.
   int anchor_index(const std::string& id) const;

@@ -149,6 +149,7 @@ DropReasons TdoaEstimator::drop_reasons() const {
   d.add(DropReason::kUnknownAnchor, stats_.dropped_unknown_anchor);
   d.add(DropReason::kInvalid, stats_.dropped_invalid);
   d.add(DropReason::kLate, stats_.dropped_late + c.dropped_late);
+  d.add(DropReason::kTimeJump, guard_.dropped());
   d.add(DropReason::kDuplicate, stats_.dropped_duplicate + c.dropped_duplicate);
   d.add(DropReason::kTooManyTags, stats_.dropped_too_many_tags);
   d.add(DropReason::kNoClock, stats_.rx_no_clock);
@@ -179,6 +180,18 @@ void TdoaEstimator::on_rx(const uwb_rx_t& m) {
   }
   if (clocks_.anchor_index(m.anchor_id) < 0) {
     ++(clocks_.num_anchors() == 0 ? stats_.dropped_no_anchors : stats_.dropped_unknown_anchor);
+    return;
+  }
+  // A stamp far from its anchor's timeline waits for confirmation (core/time_guard.hpp): one
+  // reception stamped ahead closed every open blink and became the clocks' newest. An anchor
+  // whose host clock went back restarts the clocks and the tracks (intervals across are
+  // nonsense).
+  if (!guard_.admit(m.anchor_id, m.utime, [this, m] { on_rx(m); }, [this] {
+        clocks_.restart();
+        tracks_.clear();
+        open_order_.clear();
+      })) {
+    --stats_.rx_in;  // counted when handed over again, or dropped as a time jump
     return;
   }
   close_expired(m.utime);

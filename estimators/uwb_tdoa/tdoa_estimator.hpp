@@ -20,6 +20,7 @@
 
 #include "core/cv_filter.hpp"
 #include "core/drop_reasons.hpp"
+#include "core/time_guard.hpp"
 #include "core/pose_tally.hpp"
 #include "core/site.hpp"
 #include "estimators/uwb_tdoa/clock_sync.hpp"
@@ -116,6 +117,8 @@ class TdoaEstimator {
   // The receptions (blinks and syncs) that gave no estimate, by reason; gated and initialising
   // count range differences and blinks.
   DropReasons drop_reasons() const;
+  // Time plausibility of the inputs, per anchor (core/time_guard.hpp).
+  const TimeGuardStats& time_stats() const { return guard_.stats(); }
   const TdoaParams& params() const { return params_; }
   const ClockSync& clocks() const { return clocks_; }
   const std::string& master_id() const { return clocks_.master_id(); }
@@ -178,6 +181,7 @@ class TdoaEstimator {
   std::deque<std::pair<utime_t, std::string>> open_order_;  // open blinks, oldest first
   std::vector<Arrival> arrivals_;                           // scratch, reused
   TdoaStats stats_;
+  TimeGuard guard_;  // per sender (core/time_guard.hpp)
 };
 
 }  // namespace ips::uwb_tdoa

@@ -86,6 +86,13 @@ void TwrEstimator::on_range(const uwb_range_t& m) {
     ++stats_.dropped_invalid;
     return;
   }
+  // A stamp far from the tag's timeline waits for confirmation (core/time_guard.hpp); a tag whose
+  // clock went back starts afresh.
+  if (!guard_.admit(m.tag_id, m.utime, [this, m] { on_range(m); },
+                    [this, &m] { tracks_.erase(m.tag_id); })) {
+    --stats_.ranges_in;  // counted when handed over again, or dropped as a time jump
+    return;
+  }
   auto it = tracks_.find(m.tag_id);
   const bool inserted = it == tracks_.end();
   if (inserted) {

@@ -22,6 +22,7 @@
 #include "core/site.hpp"
 #include "core/cv_filter.hpp"
 #include "core/drop_reasons.hpp"
+#include "core/time_guard.hpp"
 #include "estimators/uwb_twr/models/uwb_range.hpp"
 
 namespace ips::uwb_twr {
@@ -94,7 +95,13 @@ class TwrEstimator {
   bool has_site() const { return site_.has_value(); }
   void on_range(const uwb_range_t& msg);
   const TwrStats& stats() const { return stats_; }
-  DropReasons drop_reasons() const { return stats_.drop_reasons(); }
+  DropReasons drop_reasons() const {
+    DropReasons d = stats_.drop_reasons();
+    d.add(DropReason::kTimeJump, guard_.dropped());
+    return d;
+  }
+  // Time plausibility of the inputs, per sender (core/time_guard.hpp).
+  const TimeGuardStats& time_stats() const { return guard_.stats(); }
   const TwrParams& params() const { return params_; }
 
  private:
@@ -136,6 +143,7 @@ class TwrEstimator {
   std::map<std::string, Track> tracks_;
   int enabled_uwb_anchors_ = 0;
   TwrStats stats_;
+  TimeGuard guard_;  // per sender (core/time_guard.hpp)
 };
 
 }  // namespace ips::uwb_twr

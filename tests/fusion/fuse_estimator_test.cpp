@@ -125,11 +125,21 @@ TEST(FuseEstimator, LateMessagesAreFusedInOrder) {
   EXPECT_EQ(late.stats().dropped_late, 0);
   // Beyond max_delay_s: dropped and counted.
   uwb_range_t old{};
-  old.utime = in.back().t - s_to_utime(3.0);
+  old.utime = in.back().t - s_to_utime(1.5);
   old.tag_id = "T1";
   old.anchor_id = "A1";
   old.range_m = 5.0;
   late.on_range(old);
+  EXPECT_EQ(late.stats().dropped_late, 1);
+  // Further back than the time guard's max_behind_s: held as a suspect, refuted by the tag's next
+  // message and dropped as a time jump, never rolled back to.
+  old.utime = in.back().t - s_to_utime(30.0);
+  late.on_range(old);
+  EXPECT_EQ(late.time_stats().held, 1);
+  old.utime = in.back().t + s_to_utime(0.1);
+  late.on_range(old);
+  EXPECT_EQ(late.time_stats().discarded, 1);
+  EXPECT_EQ(late.drop_reasons().count(DropReason::kTimeJump), 1);
   EXPECT_EQ(late.stats().dropped_late, 1);
 }
 
