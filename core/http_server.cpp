@@ -242,13 +242,13 @@ bool HttpServer::make_room(const std::string& peer, std::string& why) {
     const Conn& c = *its[d.evict];
     char waited[32];
     std::snprintf(waited, sizeof waited, "%.1f s", views[d.evict].waiting_s);
-    const std::string what = c.parser.in_body()        ? "its request body incomplete after "
-                             : c.parser.in_progress()  ? "its request head incomplete after "
-                             : !c.answered             ? "no request after "
-                                                       : "idle for ";
+    const std::string what = c.parser.in_body()       ? "its request body incomplete after "
+                             : c.parser.in_progress() ? "its request head incomplete after "
+                             : !c.answered            ? "no request after "
+                                                      : "idle for ";
     ++stats_.evicted;
-    cut(its[d.evict], "evicted (" + what + waited + ") for a new connection from " + peer + ": " +
-                          d.reason);
+    cut(its[d.evict],
+        "evicted (" + what + waited + ") for a new connection from " + peer + ": " + d.reason);
   }
   return true;
 }
@@ -539,9 +539,8 @@ void HttpServer::sweep() {
     const auto next = std::next(it);
     Conn& c = *it;
     // The first head is due from the accept, a later one from its first byte.
-    const bool awaiting_head =
-        c.out.empty() && !c.close_after && !c.parser.in_body() &&
-        (!c.answered || c.parser.in_progress());
+    const bool awaiting_head = c.out.empty() && !c.close_after && !c.parser.in_body() &&
+                               (!c.answered || c.parser.in_progress());
     const auto head_start = !c.answered ? c.accepted : c.request_start;
     if (c.stream_id != 0) {
       // A comment line (ignored by EventSource): keeps idle streams open through proxies, and a
@@ -549,8 +548,7 @@ void HttpServer::sweep() {
       if (now - c.last_event > keepalive) queue_event(it, ": keepalive\n\n");
     } else if (awaiting_head && now - head_start > header) {
       ++stats_.header_timeouts;
-      cut(it, std::string(c.parser.in_progress() ? "request head incomplete"
-                                                 : "no request") +
+      cut(it, std::string(c.parser.in_progress() ? "request head incomplete" : "no request") +
                   " after " + seconds_text(options_.header_timeout_s));
     } else if (c.parser.in_progress() && now - c.request_start > slow) {
       ++stats_.request_timeouts;

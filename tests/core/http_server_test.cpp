@@ -527,9 +527,8 @@ TEST(DecideSlot, APeerAtItsLimitTakesOneOfItsOwnEvenWithRoomLeft) {
   EXPECT_EQ(d.evict, 2u);
   EXPECT_EQ(d.reason, "the 2 connections of 10.0.0.1 are taken");
   // Its own all busy: refused, though another peer's connection waits.
-  const std::vector<SlotView> busy = {{"10.0.0.1", Use::kBusy, 1},
-                                      {"10.0.0.2", Use::kWaiting, 9},
-                                      {"10.0.0.1", Use::kBusy, 3}};
+  const std::vector<SlotView> busy = {
+      {"10.0.0.1", Use::kBusy, 1}, {"10.0.0.2", Use::kWaiting, 9}, {"10.0.0.1", Use::kBusy, 3}};
   const SlotDecision r = decide_slot(busy, "10.0.0.1", 8, 2);
   EXPECT_FALSE(r.admit);
   EXPECT_EQ(r.reason, "more than 2 connections from 10.0.0.1 (none idle or unfinished to evict)");
