@@ -158,7 +158,8 @@ void Node::count_sequence(const lcm::ReceiveBuffer* rbuf) {
 }
 
 void Node::measure_recv_buf() {
-  const std::string url = lcm_url_with_recv_buf(effective_lcm_url(opts_.lcm_url), opts_.lcm_recv_buf);
+  const std::string url =
+      lcm_url_with_recv_buf(effective_lcm_url(opts_.lcm_url), opts_.lcm_recv_buf);
   recv_buf_requested_ = lcm_url_recv_buf(url);
   const uint16_t port = lcm_url_udpm_port(url);
   if (port == 0) return;  // not udpm: no socket of ours
@@ -326,19 +327,20 @@ void Node::end_lasting_error(const std::string& key) {
 }
 
 void Node::publish_health() {
-  if (degraded_by_error_ && std::chrono::duration<double>(std::chrono::steady_clock::now() -
-                                                          last_error_at_)
-                                    .count() >= degraded_hold_s_) {
+  if (degraded_by_error_ &&
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - last_error_at_).count() >=
+          degraded_hold_s_) {
     state_ = health_t::STATE_OK;
     degraded_by_error_ = false;
   }
-  const BusLoss loss = this->loss();
+  const BusLoss lost = loss();
   // Loss on the way in is an error worth seeing (degraded for a while), not just a number.
-  if (const int64_t bus_lost = loss.kernel_drops + loss.queue_drops; bus_lost > reported_bus_loss_) {
+  if (const int64_t bus_lost = lost.kernel_drops + lost.queue_drops;
+      bus_lost > reported_bus_loss_) {
     report_error(std::to_string(bus_lost - reported_bus_loss_) + " messages lost on the way in (" +
-                 std::to_string(loss.kernel_drops) + " dropped by the kernel: receive buffer " +
-                 std::to_string(loss.recv_buf_bytes) + " bytes; " +
-                 std::to_string(loss.queue_drops) + " by the LCM queue of " +
+                 std::to_string(lost.kernel_drops) + " dropped by the kernel: receive buffer " +
+                 std::to_string(lost.recv_buf_bytes) + " bytes; " +
+                 std::to_string(lost.queue_drops) + " by the LCM queue of " +
                  std::to_string(opts_.lcm_queue) + "; docs/networking.md#loss)");
     reported_bus_loss_ = bus_lost;
   }
@@ -353,10 +355,10 @@ void Node::publish_health() {
   h.parse_errors = counters_.parse_errors;
   h.drops = counters_.drops;
   h.last_error = last_error_;
-  h.kernel_drops = loss.kernel_drops;
-  h.queue_drops = loss.queue_drops;
-  h.seq_lost = loss.seq.lost;
-  h.recv_buf_bytes = loss.recv_buf_bytes;
+  h.kernel_drops = lost.kernel_drops;
+  h.queue_drops = lost.queue_drops;
+  h.seq_lost = lost.seq.lost;
+  h.recv_buf_bytes = lost.recv_buf_bytes;
   h.uptime_us = std::chrono::duration_cast<std::chrono::microseconds>(
                     std::chrono::steady_clock::now() - start_time_)
                     .count();

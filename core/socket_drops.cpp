@@ -132,6 +132,9 @@ int64_t KernelDropCounter::update(const std::map<uint64_t, UdpSocketRow>& socket
   }
   current_ = 0;
   for (const auto& [inode, row] : sockets) {
+    // A count that went down is a new socket under a reused inode: the old one's count stays.
+    if (auto it = last_.find(inode); it != last_.end() && row.drops < it->second)
+      retired_ += it->second;
     last_[inode] = row.drops;
     current_ += row.drops;
   }

@@ -120,6 +120,8 @@ TEST(SocketDrops, ClosedSocketsKeepTheirDropsInTheTotal) {
   EXPECT_EQ(c.update(s), 15);
   s[3] = {5555, 0, 1};  // reopened
   EXPECT_EQ(c.update(s), 16);
+  s[1].drops = 2;  // inode 1 reused by a new socket: the old one's 12 stay
+  EXPECT_EQ(c.update(s), 18);  // 3 + 12 retired, 2 + 1 now
 }
 
 TEST(SocketDrops, FindsThisProcesssOwnUdpSocket) {
