@@ -247,16 +247,18 @@ bool HttpServer::make_room(const std::string& peer, std::string& why) {
                              : !c.answered            ? "no request after "
                                                       : "idle for ";
     ++stats_.evicted;
+    // The evicted client is not told the other's address.
     cut(its[d.evict],
-        "evicted (" + what + waited + ") for a new connection from " + peer + ": " + d.reason);
+        "evicted (" + what + waited + ") for a new connection from " + peer + ": " + d.reason,
+        "evicted (" + what + waited + ") for a new connection: " + d.reason);
   }
   return true;
 }
 
-void HttpServer::cut(ConnIt it, const std::string& why) {
+void HttpServer::cut(ConnIt it, const std::string& why, const std::string& told) {
   Conn& c = *it;
   if (callbacks_.on_refused) callbacks_.on_refused(408, why, c.peer);
-  c.out += http_response(408, "application/json", error_body(why), false);
+  c.out += http_response(408, "application/json", error_body(told.empty() ? why : told), false);
   flush(c);
   close_soon(it);
 }

@@ -178,8 +178,8 @@ class HttpServer {
   void on_accept();
   // A slot for a new connection from `peer` (evicting one if need be); false: refuse it.
   bool make_room(const std::string& peer, std::string& why);
-  // 408 with `why`, best effort, then closed.
-  void cut(ConnIt it, const std::string& why);
+  // 408, best effort, then closed: `why` for on_refused, `told` (or `why`) to the client.
+  void cut(ConnIt it, const std::string& why, const std::string& told = {});
   void on_event(ConnIt it, short revents);
   // Parses and answers while no response is waiting; false when the connection is to be closed.
   bool serve(ConnIt it);

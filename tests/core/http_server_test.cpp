@@ -583,6 +583,10 @@ TEST(HttpServer, ANewConnectionEvictsTheLongestIdleWhenAllAreTaken) {
   Response r;
   ASSERT_TRUE(take_response(a.received, r));
   EXPECT_EQ(r.status, 408);
+  // Told why, but not the other client's address.
+  EXPECT_NE(r.body.find("for a new connection: all 2 connections are taken"), std::string::npos)
+      << r.body;
+  EXPECT_EQ(r.body.find("127.0.0.1"), std::string::npos) << r.body;
   b.send("GET / HTTP/1.1\r\n\r\n");
   EXPECT_EQ(get_response(f.node, b).body, "<p>hi</p>");
   ASSERT_EQ(f.refused.size(), 1u);
