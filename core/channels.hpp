@@ -13,6 +13,10 @@ inline constexpr const char* kImu = "IMU";
 inline constexpr const char* kBaro = "BARO";
 inline constexpr const char* kInsModule = "INS_MODULE";
 inline constexpr const char* kSite = "SITE";
+// A process waiting for its site asks for it here (an empty site_t); whoever holds the bus's
+// site answers on SITE (core/site_source.cpp): a restarted estimator need not wait for the next
+// periodic SITE.
+inline constexpr const char* kSiteRequest = "SITE_REQUEST";
 inline constexpr const char* kHealth = "HEALTH";
 inline constexpr const char* kTruth = "TRUTH";
 inline constexpr const char* kPoseUwb = "POSE_UWB";
@@ -41,6 +45,6 @@ inline bool valid_channel_name(const std::string& name) {
 inline constexpr const char* kAllKinds[] = {
     kUwbRange, kUwbRx,    kBleAoa,   kImu,     kBaro,    kInsModule, kSite,  kHealth,    kTruth,
     kPoseUwb,  kPoseTdoa, kPoseAoa,  kPosePdr, kPoseIns, kStep,      kAltitude, kClock, kPoseFused,
-    kPoseUwbModule};
+    kPoseUwbModule, kSiteRequest};
 
 }  // namespace ips::channel

@@ -8,10 +8,12 @@
 #include <spdlog/spdlog.h>
 #include <thread>
 
+#include "core/channels.hpp"
 #include "core/cli.hpp"
 #include "core/lcm_url.hpp"
 #include "core/node.hpp"
 #include "core/progress.hpp"
+#include "core/site_source.hpp"
 #include "drivers/sim/simulator.hpp"
 
 namespace {
@@ -55,6 +57,9 @@ int write_log(ips::sim::Simulator& sim, const ips::CommonOptions& opts, const st
 
 int publish_live(ips::sim::Simulator& sim, ips::Node& node, double speed) {
   ips::sim::SimEvent ev;
+  // The SITE published last: the answer to a process that asks for it (a restarted estimator).
+  std::optional<ips::site_t> site;
+  ips::answer_site_requests(node, [&]() -> const ips::site_t* { return site ? &*site : nullptr; });
   const auto wall0 = std::chrono::steady_clock::now();
   int64_t count = 0;
   spdlog::info("ips-sim: publishing scenario '{}' live for {:.0f} s (speed x{}) on {}",
@@ -72,6 +77,10 @@ int publish_live(ips::sim::Simulator& sim, ips::Node& node, double speed) {
     }
     if (!node.spin_once(0)) return 0;
     node.publish_raw(node.options().channel(ev.kind), ev.data.data(), ev.data.size());
+    if (ev.kind == ips::channel::kSite) {
+      ips::site_t m;
+      if (ips::decode_message(m, ev.data.data(), ev.data.size())) site = std::move(m);
+    }
     ++count;
   }
   node.publish_health();

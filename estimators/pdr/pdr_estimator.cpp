@@ -140,6 +140,12 @@ void PdrEstimator::on_imu(const imu_t& m) {
   const bool usable_dt = dt > 0 && dt <= params_.max_gap_s;
 
   if (!t.aligned) {
+    t.all_a += a;
+    ++t.n_all;
+    if (vec(m.mag_ut).allFinite()) {
+      t.all_m += vec(m.mag_ut);
+      ++t.n_all_mag;
+    }
     // Rest: gravity-sized specific force and a small rate; anything else restarts the window.
     const bool rest = std::abs(a.norm() - params_.gravity_mps2) < params_.still_accel_mps2 &&
                       g.norm() < params_.still_gyro_rad_s;
@@ -165,11 +171,14 @@ void PdrEstimator::on_imu(const imu_t& m) {
     if (t.n > 0 && utime_to_s(m.utime - t.rest_start) >= params_.init_still_s && t.n_dt > 0) {
       align(t, m.device_id, true);
     } else if (utime_to_s(m.utime - t.first_utime) >= params_.max_align_s && t.n_dt > 0) {
-      if (t.n == 0) {  // no rest at all: the current sample is all there is
-        t.sum_a = a;
-        t.sum_g.setZero();
-        t.n = 1;
-      }
+      // No rest long enough (a restart mid-walk): tilt from the mean specific force of the
+      // whole window, in which the walk's accelerations average out; no gyro bias yet (learned
+      // at the next rest); a looser attitude.
+      t.sum_a = t.all_a;
+      t.sum_g.setZero();
+      t.n = t.n_all;
+      t.sum_m = t.all_m;
+      t.n_mag = t.n_all_mag;
       align(t, m.device_id, false);
     }
     if (!t.aligned) ++stats_.samples_aligning;

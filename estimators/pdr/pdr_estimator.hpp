@@ -47,7 +47,7 @@ struct PdrParams {
   double phone_yaw_offset_deg = 0.0;     // phone's top relative to the walking direction, CCW
   double gravity_mps2 = 9.81;
   double init_still_s = 1.0;             // rest needed before the first step
-  double max_align_s = 10.0;             // start anyway after this long without rest
+  double max_align_s = 2.0;              // without rest: start after this long, from the mean
   double still_gyro_rad_s = 0.05;        // still: |omega - b| below this ...
   double still_accel_mps2 = 0.3;         // ... and ||a| - g| below this ...
   double still_window_s = 0.3;           // ... for this long
@@ -116,6 +116,10 @@ class PdrEstimator {
     Eigen::Vector3d sum_a = Eigen::Vector3d::Zero(), sum_g = Eigen::Vector3d::Zero(),
                     sum_m = Eigen::Vector3d::Zero();
     int n = 0, n_mag = 0;
+    // ... and over every sample since the first: a phone that never rests is aligned on their
+    // mean (walking's accelerations average out; gravity remains).
+    Eigen::Vector3d all_a = Eigen::Vector3d::Zero(), all_m = Eigen::Vector3d::Zero();
+    int n_all = 0, n_all_mag = 0;
     utime_t rest_start = 0;
     double sum_dt = 0;
     int n_dt = 0;

@@ -41,7 +41,7 @@ struct ClockSyncParams {
   double initial_rate_sigma_ppb = 20000.0;
   double gate_sigma = 5.0;             // reject |innovation| > gate_sigma * sqrt(S)
   int reacquire_after_rejections = 3;  // consecutive gated syncs that restart the clock
-  int tracking_after_syncs = 3;        // syncs before a clock is used (offset and rate settled)
+  int tracking_after_syncs = 2;        // syncs before a clock is used (two give offset and rate)
   double lost_after_s = 10.0;          // no accepted sync this long: lost, re-acquired later
   double match_window_s = 0.5;         // an anchor's sync report waits this long for the master's
 };

@@ -29,4 +29,4 @@ add_test(NAME fuse_stall_netns
          COMMAND ${CMAKE_CURRENT_SOURCE_DIR}/fusion/fuse_stall_netns.sh
                  ${CMAKE_RUNTIME_OUTPUT_DIRECTORY})
 set_tests_properties(fuse_stall_netns PROPERTIES LABELS integration TIMEOUT 150
-                                                 SKIP_RETURN_CODE 77)
+                                                 SKIP_RETURN_CODE 77 RESOURCE_LOCK cpu_heavy)
