@@ -224,26 +224,59 @@ TEST(SiteSource, WaitsForSiteMessageAndReportsStartingMeanwhile) {
   std::vector<std::string> sites;
   provide_site(node, [&](const Site& s) { sites.push_back(s.name); });
   std::vector<int8_t> states;
+  // memq hands over one message a turn (the SITE_REQUEST provide_site sent comes first).
+  auto drain = [&] {
+    for (int i = 0; i < 4; ++i) node.spin_once(10);
+  };
   node.subscribe<health_t>("HEALTH", [&](const health_t& h, const std::string&) { states.push_back(h.state); });
   node.publish_health();
-  node.spin_once(100);
+  drain();
   Site site = parse_site_text("name: hall\nanchors:\n  - {id: A, position: [0, 0, 0]}\n", "x");
   node.publish("SITE", site_to_msg(site, 1, "test"));
-  node.spin_once(100);
+  drain();
   node.publish("SITE", site_to_msg(site, 2, "test"));  // same site again: not re-applied
-  node.spin_once(100);
+  drain();
   site_t broken = site_to_msg(site, 3, "test");
   broken.site_yaml = "anchors: [";
   node.publish("SITE", broken);
-  node.spin_once(100);
+  drain();
   node.publish_health();
-  node.spin_once(100);
+  drain();
   ASSERT_EQ(sites.size(), 1u);
   EXPECT_EQ(sites[0], "hall");
   ASSERT_EQ(states.size(), 2u);
   EXPECT_EQ(states[0], health_t::STATE_STARTING);
   EXPECT_EQ(states[1], health_t::STATE_DEGRADED);  // the broken SITE was reported
   EXPECT_EQ(node.counters().parse_errors, 1);
+}
+
+TEST(SiteSource, AsksForTheSiteAndOnceItHoldsOneAnswersOthersWithTheSameMessage) {
+  Node node("est", memq());
+  int got = 0;
+  provide_site(node, [&](const Site&) { ++got; });
+  std::vector<site_t> requests, answers;
+  node.subscribe<site_t>("SITE_REQUEST", [&](const site_t& m, const std::string&) { requests.push_back(m); });
+  node.subscribe<site_t>("SITE", [&](const site_t& m, const std::string&) { answers.push_back(m); });
+  for (int i = 0; i < 3; ++i) node.spin_once(20);
+  ASSERT_EQ(requests.size(), 1u);  // asked at start (no site held: nobody answers)
+  EXPECT_EQ(requests[0].source, "est");
+  EXPECT_EQ(requests[0].num_anchors, 0);
+  EXPECT_TRUE(answers.empty());
+  Site site = parse_site_text("name: hall\nanchors:\n  - {id: A, position: [0, 0, 0]}\n", "x");
+  site_t sent = site_to_msg(site, 7, "publisher");
+  node.publish("SITE", sent);
+  for (int i = 0; i < 3; ++i) node.spin_once(20);
+  EXPECT_EQ(got, 1);
+  // Another process asks: answered with the message as it came (same text and source).
+  site_t ask{};
+  ask.source = "other";
+  ask.num_anchors = ask.num_baro_stations = ask.num_tags = 0;
+  node.publish("SITE_REQUEST", ask);
+  for (int i = 0; i < 6; ++i) node.spin_once(20);
+  ASSERT_EQ(answers.size(), 2u);  // the publisher's, then the answer
+  EXPECT_EQ(answers[1].site_yaml, sent.site_yaml);
+  EXPECT_EQ(answers[1].source, "publisher");
+  EXPECT_EQ(got, 1);  // the answer is the same text: not applied again
 }
 
 TEST(LcmUrl, BadUrlThrowsOneClearLine) {
