@@ -28,7 +28,8 @@
 namespace ips {
 
 struct TimeGuardParams {
-  double max_ahead_s = 0.5;   // ahead of the sender's (or everyone's) newest: a suspect beyond
+  double max_ahead_s = 0.5;   // ahead of the sender's (or everyone's) newest: a suspect beyond,
+                              // plus twice the sender's usual interval (a 1 Hz anchor: 2.5 s)
   double max_behind_s = 2.0;  // behind the sender's newest: a suspect beyond (late ones within
                               // are the estimator's own business)
   int confirm = 3;            // consistent suspects in a row that re-anchor a sender
@@ -63,7 +64,8 @@ class TimeGuard {
   template <class Again>
   Verdict check(const std::string& sender, utime_t t, Again&& again) {
     Sender* s = sender_for(sender);
-    const utime_t ahead = s_to_utime(params_.max_ahead_s);
+    learn_interval(*s, t);
+    const utime_t ahead = ahead_of(*s);
     const utime_t behind = s_to_utime(params_.max_behind_s);
     const bool agrees =
         s->suspects > 0 && t <= s->suspect_newest + ahead && t >= s->suspect_newest - behind;
@@ -138,7 +140,7 @@ class TimeGuard {
       return false;
     // Suspects held meanwhile that agree with this stamp are confirmed by it (the caller calls
     // release()); others are refuted.
-    const bool confirms = s->suspects > 0 && t <= s->suspect_newest + s_to_utime(params_.max_ahead_s) &&
+    const bool confirms = s->suspects > 0 && t <= s->suspect_newest + ahead_of(*s) &&
                           t >= s->suspect_newest - s_to_utime(params_.max_behind_s);
     s->newest = went_back ? t : std::max(s->newest, t);
     newest_ = went_back ? t : std::max(newest_, t);
@@ -185,12 +187,26 @@ class TimeGuard {
   struct Sender {
     utime_t newest = 0;  // 0: nothing accepted yet
     utime_t suspect_newest = 0;
+    utime_t last_seen = 0;  // the stamp of the sender's last message, whatever became of it
+    utime_t interval = 0;   // its usual interval (0: not known yet)
     int suspects = 0;
     std::vector<std::function<void()>> held;
   };
 
+  // The sender's usual interval between messages, from the stamps as they come (accepted or
+  // not; gaps beyond kMaxIntervalS, and steps back, left out), smoothed: a slow sender's next
+  // message is one interval ahead of its newest.
+  static constexpr double kMaxIntervalS = 10.0;
+  void learn_interval(Sender& s, utime_t t) {
+    const utime_t d = t - s.last_seen;
+    if (s.last_seen != 0 && d > 0 && d <= s_to_utime(kMaxIntervalS))
+      s.interval = s.interval == 0 ? d : s.interval + (d - s.interval) / 8;
+    s.last_seen = t;
+  }
+  utime_t ahead_of(const Sender& s) const { return s_to_utime(params_.max_ahead_s) + 2 * s.interval; }
+
   bool in_window(const Sender* s, utime_t t) const {
-    const utime_t ahead = s_to_utime(params_.max_ahead_s);
+    const utime_t ahead = ahead_of(*s);
     const utime_t behind = s_to_utime(params_.max_behind_s);
     if (newest_ == 0) return true;  // the first message of all sets the reference
     if (s->newest != 0 && t >= s->newest - behind && t <= s->newest + ahead) return true;

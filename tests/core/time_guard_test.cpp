@@ -110,6 +110,23 @@ TEST(TimeGuard, RandomStampsNeverMoveTheReference) {
   EXPECT_LE(f.used.size(), 1010u);  // a random stamp that happens to land in the window
 }
 
+TEST(TimeGuard, SlowSendersAreTakenOneIntervalAheadAndStillGuarded) {
+  // Three barometers read together at 1.7 Hz (one row of a file every 0.58 s): the next row is
+  // more than max_ahead_s ahead of everyone's newest, and still every reading is taken.
+  Fixture f;
+  for (int i = 0; i < 50; ++i)
+    for (const char* id : {"T1", "T1.start", "mpl"}) f.feed(id, kT0 + i * 575931);
+  EXPECT_EQ(f.used.size(), 150u);
+  EXPECT_EQ(f.guard.stats().held, 0);
+  // A 1 Hz anchor: one stamp 20 s ahead is still held and dropped.
+  Fixture a;
+  for (int i = 0; i < 20; ++i) a.feed("B1", kT0 + i * kSec);
+  a.feed("B1", kT0 + 40 * kSec);
+  for (int i = 20; i < 30; ++i) a.feed("B1", kT0 + i * kSec);
+  EXPECT_EQ(a.used.size(), 30u);
+  EXPECT_EQ(a.guard.stats().discarded, 1);
+}
+
 TEST(TimeGuard, SendersAreBounded) {
   TimeGuardParams p;
   p.max_senders = 8;
