@@ -177,11 +177,6 @@ class TimeGuard {
     for (const auto& [name, s] : senders_) n += static_cast<int64_t>(s.held.size());
     return n;
   }
-  void clear() {
-    senders_.clear();
-    releasing_.clear();
-    newest_ = 0;
-  }
 
  private:
   struct Sender {
