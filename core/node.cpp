@@ -359,6 +359,7 @@ void Node::publish_health() {
   h.queue_drops = lost.queue_drops;
   h.seq_lost = lost.seq.lost;
   h.recv_buf_bytes = lost.recv_buf_bytes;
+  h.consistency = consistency_;
   h.uptime_us = std::chrono::duration_cast<std::chrono::microseconds>(
                     std::chrono::steady_clock::now() - start_time_)
                     .count();

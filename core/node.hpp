@@ -138,6 +138,8 @@ class Node {
   int8_t state() const {
     return state_ == health_t::STATE_OK && !lasting_.empty() ? health_t::STATE_DEGRADED : state_;
   }
+  // An estimator's innovation check for HEALTH's `consistency` (core/consistency.hpp).
+  void set_consistency(std::string text) { consistency_ = std::move(text); }
   // How long a reported error keeps the process degraded (60 s; tests shorten it).
   void set_degraded_hold(double seconds) { degraded_hold_s_ = seconds; }
   void publish_health();
@@ -186,6 +188,7 @@ class Node {
   int stop_signal_ = 0;
   int8_t state_ = health_t::STATE_OK;
   std::string last_error_;
+  std::string consistency_;
   bool degraded_by_error_ = false;  // state_ is DEGRADED because of report_error()
   std::set<std::string> lasting_;  // report_lasting_error() keys not ended yet
   std::chrono::steady_clock::time_point last_error_at_;

@@ -263,6 +263,8 @@ void ViewModel::on_health(const health_t& msg, utime_t host_utime) {
   p.health = msg;
   if (p.health.last_error.size() > options_.max_error_bytes)
     p.health.last_error.resize(options_.max_error_bytes);
+  if (p.health.consistency.size() > options_.max_error_bytes)
+    p.health.consistency.resize(options_.max_error_bytes);
   p.host_utime = host_utime;
 }
 
@@ -509,6 +511,8 @@ std::string ViewModel::json(utime_t now, bool with_trails) const {
     s += std::to_string(h.recv_buf_bytes) + ',';
     key(s, "last_error");
     s += json_string(h.last_error) + ',';
+    key(s, "consistency");
+    s += json_string(h.consistency) + ',';
     key(s, "uptime_s");
     s += json_number(utime_to_s(h.uptime_us)) + ',';
     key(s, "age_s");

@@ -141,7 +141,8 @@ void fields(const health_t& m, Fields& f) {
        {"kernel_drops", m.kernel_drops},
        {"queue_drops", m.queue_drops},
        {"seq_lost", m.seq_lost},
-       {"recv_buf_bytes", int64_t{m.recv_buf_bytes}}};
+       {"recv_buf_bytes", int64_t{m.recv_buf_bytes}},
+       {"consistency", m.consistency}};
 }
 
 // The parts of site_t, should one ever be published on its own.

@@ -82,6 +82,8 @@
           p.queue_drops + ' by the LCM queue';
       cell(tr, String(p.seq_lost), 'num');
       cell(tr, fixed(p.age_s, 1), 'num');
+      cell(tr, p.consistency || '', 'error').title =
+          'innovations against the assumed noise (1.0x: consistent)';
       cell(tr, p.last_error, 'error');
       return tr;
     }));

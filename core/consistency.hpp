@@ -1,0 +1,297 @@
+#pragma once
+// Does an estimator's input agree with the noise it assumes? Per input kind and source (an
+// anchor, a sensor), a window of normalised innovations squared (NIS) against their chi-square
+// expectation, and the share of gated measurements. A wrong noise setting or a broken sensor
+// then shows by name ("BARO B1: innovations 11x their assumed variance; pressure_sigma_pa 0.5
+// looks too small for this sensor") instead of giving confident nonsense.
+//
+// The test is robust: the window's MEDIAN NIS over the chi-square median for its degrees of
+// freedom, so that a few outliers (NLOS ranges, a slammed door) do not make a channel look noisy,
+// while a setting 10x too small (NIS 100x) shows within a dozen measurements. Gated measurements
+// are passed too: a sigma far too small gates nearly everything, and that must show.
+//
+// Scalar channels can learn their noise online (on by default, off by a site setting): the
+// variance to use is the window's median r^2 / 0.455 (the chi-square(1) median) minus the median
+// prediction variance H P H', clamped to [learn_min, learn_max] x the configured variance. A
+// learned value within its bounds compensates, so the channel is reported but the process is
+// not degraded; at a bound, or with learning off, it is.
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <deque>
+#include <map>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace ips {
+
+// The median of a chi-square distribution with `dof` degrees of freedom (exact table to 6, then
+// the Wilson-Hilferty approximation).
+inline double chi2_median(int dof) {
+  static constexpr double kTable[] = {0.0, 0.45494, 1.38629, 2.36597, 3.35669, 4.35146, 5.34812};
+  if (dof <= 0) return kTable[1];
+  if (dof <= 6) return kTable[dof];
+  const double k = dof;
+  const double c = 1.0 - 2.0 / (9.0 * k);
+  return k * c * c * c;
+}
+
+struct ConsistencyOptions {
+  double window_s = 20.0;    // innovations older than this (measurement time) leave the window
+  size_t max_samples = 300;  // per channel, the newest kept
+  size_t min_samples = 10;   // fewer in the window: no verdict, nothing learned
+  double too_noisy = 5.0;    // median NIS / chi-square median above this: noisier than assumed
+  double too_quiet = 0.1;    // below this: the assumed noise is far larger than the data's
+  double gated_warn = 0.3;   // a share of gated measurements above this is said
+  bool learn = true;         // scalar channels learn their noise (site: <estimator>.learn_noise)
+  double learn_min = 0.25;   // learned variance bounds, times the configured variance
+  double learn_max = 100.0;  // (sigma 0.5x to 10x the configured one)
+};
+
+class ConsistencyMonitor {
+ public:
+  enum class State { kTooFew, kOk, kNoisy, kQuiet };
+  struct Verdict {
+    std::string kind, source, setting;
+    size_t n = 0;              // samples in the window
+    double ratio = NAN;        // median NIS / chi-square median (1 when consistent)
+    double gated_share = 0.0;  // of the window
+    State state = State::kTooFew;
+    bool scalar = false;
+    double learned_sigma = NAN;  // scalar channels with learning: the sigma in use now
+    bool compensated = false;    // learning covers the mismatch (within its bounds)
+  };
+
+  explicit ConsistencyMonitor(ConsistencyOptions o = {}) : opts_(o) {}
+  const ConsistencyOptions& options() const { return opts_; }
+  void set_learning(bool on) { opts_.learn = on; }
+
+  // A scalar measurement: innovation r (measured - predicted), the prediction's variance hph
+  // (H P H') and the CONFIGURED measurement variance r_cfg. `setting` names what the user set,
+  // as written: "pressure_sigma_pa 0.5".
+  void add_scalar(std::string_view kind, std::string_view source, double t, double r, double hph,
+                  double r_cfg, bool gated, std::string_view setting = {}) {
+    if (!std::isfinite(r) || !std::isfinite(hph) || !(r_cfg > 0.0) || !std::isfinite(t)) return;
+    Channel& c = channel(kind, source, setting, 1, true);
+    push(c, t, Sample{t, r * r / (std::max(hph, 0.0) + r_cfg), r * r, std::max(hph, 0.0), gated});
+    c.r_cfg = r_cfg;
+    if (++c.since_learn >= 5 || c.window.size() <= opts_.min_samples) relearn(c);
+  }
+  // A vector measurement's normalised innovation squared (against the configured noise).
+  void add_nis(std::string_view kind, std::string_view source, double t, double nis, int dof,
+               bool gated, std::string_view setting = {}) {
+    if (!std::isfinite(nis) || nis < 0.0 || dof <= 0 || !std::isfinite(t)) return;
+    Channel& c = channel(kind, source, setting, dof, false);
+    push(c, t, Sample{t, nis, NAN, NAN, gated});
+  }
+
+  // The variance to use now for a scalar channel: r_cfg until the window holds min_samples (or
+  // with learning off), then the learned one within its bounds.
+  double variance(std::string_view kind, std::string_view source, double r_cfg) const {
+    if (!opts_.learn || !(r_cfg > 0.0)) return r_cfg;
+    const Channel* c = find(kind, source);
+    if (c == nullptr || !std::isfinite(c->learned_scale)) return r_cfg;
+    return r_cfg * c->learned_scale;
+  }
+
+  std::vector<Verdict> verdicts() const {
+    std::vector<Verdict> out;
+    out.reserve(channels_.size());
+    for (const auto& [key, c] : channels_) out.push_back(verdict(c));
+    return out;
+  }
+
+  // "BARO B1: innovations 11x their assumed variance; pressure_sigma_pa 0.5 looks too small for
+  // this sensor (learned sigma 1.7)", one clause per channel out of line, joined by "; ";
+  // "" when all agree.
+  std::string problems() const {
+    std::string s;
+    for (const Verdict& v : verdicts()) {
+      std::string p = problem_text(v);
+      if (p.empty()) continue;
+      if (!s.empty()) s += "; ";
+      s += p;
+    }
+    return s;
+  }
+  // Some channel disagrees with its noise and learning does not cover it: the process is not
+  // to be trusted (HEALTH degraded).
+  bool degraded() const {
+    for (const Verdict& v : verdicts())
+      if (v.state == State::kNoisy && !v.compensated) return true;
+    return false;
+  }
+  // "RANGE A1 1.0x, RANGE A2 3.1x 10% gated, BARO B1 96x (learned sigma 4.9)": every channel with
+  // a verdict; "" when none has one yet.
+  std::string summary() const {
+    std::string s;
+    for (const Verdict& v : verdicts()) {
+      if (v.state == State::kTooFew) continue;
+      if (!s.empty()) s += ", ";
+      s += v.kind + " " + v.source + " " + fmt(v.ratio, v.ratio < 10 ? 1 : 0) + "x";
+      if (v.gated_share >= 0.005) s += " " + fmt(100.0 * v.gated_share, 0) + "% gated";
+      if (v.scalar && opts_.learn && std::isfinite(v.learned_sigma) && v.state != State::kOk)
+        s += " (learned sigma " + fmt(v.learned_sigma, -3) + ")";
+    }
+    return s;
+  }
+  size_t channels() const { return channels_.size(); }
+  void clear() { channels_.clear(); }
+
+ private:
+  struct Sample {
+    double t, nis, r2, hph;
+    bool gated;
+  };
+  struct Channel {
+    std::string kind, source, setting;
+    int dof = 1;
+    bool scalar = false;
+    double r_cfg = NAN;
+    double learned_scale = NAN;  // learned variance / r_cfg, NaN until learned
+    bool at_bound = false;
+    int since_learn = 0;
+    std::deque<Sample> window;
+  };
+
+  static std::string key_of(std::string_view kind, std::string_view source) {
+    std::string k(kind);
+    k += '\x1f';
+    k += source;
+    return k;
+  }
+  const Channel* find(std::string_view kind, std::string_view source) const {
+    auto it = channels_.find(key_of(kind, source));
+    return it == channels_.end() ? nullptr : &it->second;
+  }
+  Channel& channel(std::string_view kind, std::string_view source, std::string_view setting,
+                   int dof, bool scalar) {
+    Channel& c = channels_[key_of(kind, source)];
+    if (c.kind.empty()) {
+      c.kind = kind;
+      c.source = source;
+    }
+    if (!setting.empty() && c.setting != setting) c.setting = setting;
+    c.dof = dof;
+    c.scalar = scalar;
+    return c;
+  }
+  void push(Channel& c, double t, const Sample& s) {
+    // A clock that went back (a restarted sender, a replay) starts the window afresh.
+    if (!c.window.empty() && t < c.window.back().t - opts_.window_s) c.window.clear();
+    c.window.push_back(s);
+    while (c.window.size() > opts_.max_samples ||
+           (!c.window.empty() && c.window.front().t < t - opts_.window_s))
+      c.window.pop_front();
+  }
+  static double median(std::vector<double>& v) {
+    if (v.empty()) return NAN;
+    const auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
+    std::nth_element(v.begin(), mid, v.end());
+    double m = *mid;
+    if (v.size() % 2 == 0) m = 0.5 * (m + *std::max_element(v.begin(), mid));
+    return m;
+  }
+  void relearn(Channel& c) {
+    c.since_learn = 0;
+    if (c.window.size() < opts_.min_samples) return;
+    std::vector<double> r2, hph;
+    r2.reserve(c.window.size());
+    hph.reserve(c.window.size());
+    for (const Sample& s : c.window) {
+      r2.push_back(s.r2);
+      hph.push_back(s.hph);
+    }
+    const double var = median(r2) / chi2_median(1) - median(hph);
+    const double scale = var / c.r_cfg;
+    c.at_bound = !(scale > opts_.learn_min && scale < opts_.learn_max);
+    c.learned_scale = std::clamp(std::isfinite(scale) ? scale : 1.0, opts_.learn_min, opts_.learn_max);
+  }
+  Verdict verdict(const Channel& c) const {
+    Verdict v;
+    v.kind = c.kind;
+    v.source = c.source;
+    v.setting = c.setting;
+    v.scalar = c.scalar;
+    v.n = c.window.size();
+    if (v.n == 0) return v;
+    std::vector<double> nis;
+    nis.reserve(v.n);
+    size_t gated = 0;
+    for (const Sample& s : c.window) {
+      nis.push_back(s.nis);
+      gated += s.gated ? 1 : 0;
+    }
+    v.gated_share = static_cast<double>(gated) / static_cast<double>(v.n);
+    v.ratio = median(nis) / chi2_median(c.dof);
+    if (v.n < opts_.min_samples) return v;
+    v.state = v.ratio > opts_.too_noisy  ? State::kNoisy
+              : v.ratio < opts_.too_quiet ? State::kQuiet
+                                          : State::kOk;
+    if (c.scalar && opts_.learn && std::isfinite(c.learned_scale)) {
+      v.learned_sigma = std::sqrt(c.learned_scale * c.r_cfg);
+      v.compensated = !c.at_bound;
+    }
+    return v;
+  }
+  std::string problem_text(const Verdict& v) const {
+    if (v.state == State::kTooFew) return "";
+    std::string s;
+    const std::string name = v.kind + " " + v.source + ": ";
+    const std::string what = v.kind == "BARO" ? "sensor" : v.kind == "RANGE" || v.kind == "ANGLE"
+                                                               ? "anchor"
+                                                               : "input";
+    if (v.state == State::kNoisy || v.state == State::kQuiet) {
+      s = name + "innovations " + fmt(v.ratio, v.ratio < 10 ? 1 : 0) + "x their assumed variance";
+      if (!v.setting.empty())
+        s += "; " + v.setting + (v.state == State::kNoisy ? " looks too small" : " looks too large") +
+             " for this " + what;
+      if (std::isfinite(v.learned_sigma))
+        s += std::string(v.compensated ? " (learned sigma " : " (learned sigma at its bound, ") +
+             fmt(v.learned_sigma, -3) + ")";
+    }
+    if (v.gated_share > opts_.gated_warn) {
+      if (s.empty()) s = name;
+      else s += ", ";
+      s += fmt(100.0 * v.gated_share, 0) + "% of its measurements gated";
+    }
+    return s;
+  }
+  // `digits` decimals, or (digits < 0) -digits significant digits.
+  static std::string fmt(double v, int digits) {
+    char buf[32];
+    if (digits >= 0) std::snprintf(buf, sizeof buf, "%.*f", digits, v);
+    else std::snprintf(buf, sizeof buf, "%.*g", -digits, v);
+    return buf;
+  }
+
+  ConsistencyOptions opts_;
+  std::map<std::string, Channel> channels_;
+};
+
+// A live process's report of its estimator's consistency in HEALTH, from its 1 Hz timer:
+// the summary goes to HEALTH's `consistency` field, and while some channel is out of line and
+// not compensated the process is degraded with the problem as a lasting error. `NodeT` is
+// ips::Node (anything with set_consistency, report_lasting_error, end_lasting_error).
+class ConsistencyHealth {
+ public:
+  template <class NodeT>
+  void report(NodeT& node, const ConsistencyMonitor& m) {
+    const std::string problems = m.problems();
+    node.set_consistency(problems.empty() ? m.summary() : problems);
+    if (m.degraded()) {
+      // On entering, and every 10 reports after, so last_error follows the figures.
+      if (reports_bad_++ % 10 == 0) node.report_lasting_error("consistency", problems);
+    } else if (reports_bad_ > 0) {
+      node.end_lasting_error("consistency");
+      reports_bad_ = 0;
+    }
+  }
+
+ private:
+  int64_t reports_bad_ = 0;
+};
+
+}  // namespace ips

@@ -1,0 +1,154 @@
+// core/consistency.hpp: the windowed innovation check and the learned noise.
+#include "core/consistency.hpp"
+
+#include <gtest/gtest.h>
+
+#include <random>
+#include <string>
+
+namespace ips {
+namespace {
+
+// Feeds `n` scalar innovations at `rate_hz` whose true variance is `true_var` (prediction
+// variance hph, so r ~ N(0, hph + true_var)), the estimator assuming `cfg_var`.
+void feed(ConsistencyMonitor& m, const std::string& source, int n, double rate_hz, double hph,
+          double true_var, double cfg_var, std::mt19937& rng, double t0 = 0.0,
+          double gate_sigma = 3.0) {
+  std::normal_distribution<double> noise(0.0, std::sqrt(hph + true_var));
+  for (int i = 0; i < n; ++i) {
+    const double used = m.variance("BARO", source, cfg_var);
+    const double r = noise(rng);
+    const bool gated = r * r > gate_sigma * gate_sigma * (hph + used);
+    m.add_scalar("BARO", source, t0 + i / rate_hz, r, hph, cfg_var, gated, "pressure_sigma_pa 0.5");
+  }
+}
+
+TEST(ChiSquareMedian, TableAndApproximation) {
+  EXPECT_NEAR(chi2_median(1), 0.455, 1e-3);
+  EXPECT_NEAR(chi2_median(2), 2.0 * std::log(2.0), 1e-4);
+  EXPECT_NEAR(chi2_median(10), 9.342, 0.01);
+}
+
+TEST(ConsistencyMonitor, ConsistentDataIsOkAndLearnsTheTrueVariance) {
+  std::mt19937 rng(1);
+  ConsistencyMonitor m;
+  feed(m, "B1", 200, 10.0, 0.1, 1.0, 1.0, rng);
+  const auto v = m.verdicts();
+  ASSERT_EQ(v.size(), 1u);
+  EXPECT_EQ(v[0].state, ConsistencyMonitor::State::kOk);
+  EXPECT_NEAR(v[0].ratio, 1.0, 0.35);
+  EXPECT_EQ(m.problems(), "");
+  EXPECT_FALSE(m.degraded());
+  EXPECT_NEAR(m.variance("BARO", "B1", 1.0), 1.0, 0.4);
+  EXPECT_NE(m.summary().find("BARO B1 "), std::string::npos);
+}
+
+// A setting 10x too small (variance 100x): named within 10 s of data at 1.7 Hz, even while the
+// estimator gates nearly everything; learning brings the variance to the truth.
+TEST(ConsistencyMonitor, TenTimesTooSmallSigmaIsNamedWithinTenSeconds) {
+  for (bool learn : {true, false}) {
+    std::mt19937 rng(2);
+    ConsistencyOptions o;
+    o.learn = learn;
+    ConsistencyMonitor m(o);
+    feed(m, "B1", 17, 1.7, 0.0001, 0.25, 0.0025, rng);  // 10 s
+    const std::string p = m.problems();
+    EXPECT_NE(p.find("BARO B1: innovations "), std::string::npos) << p;
+    EXPECT_NE(p.find("x their assumed variance; pressure_sigma_pa 0.5 looks too small for this "
+                     "sensor"),
+              std::string::npos)
+        << p;
+    const auto v = m.verdicts();
+    ASSERT_EQ(v.size(), 1u);
+    EXPECT_EQ(v[0].state, ConsistencyMonitor::State::kNoisy);
+    EXPECT_GT(v[0].ratio, 30.0);
+    if (learn) {
+      // Learned within bounds (100x is the bound: sigma 10x): compensated, not degraded.
+      EXPECT_NEAR(m.variance("BARO", "B1", 0.0025), 0.25, 0.15);
+      EXPECT_NE(p.find("learned sigma"), std::string::npos) << p;
+    } else {
+      EXPECT_TRUE(m.degraded());
+      EXPECT_DOUBLE_EQ(m.variance("BARO", "B1", 0.0025), 0.0025);
+    }
+  }
+}
+
+TEST(ConsistencyMonitor, BeyondTheLearningBoundDegrades) {
+  std::mt19937 rng(3);
+  ConsistencyMonitor m;
+  feed(m, "B1", 60, 10.0, 0.0, 1.0, 0.0001, rng);  // variance 10000x: beyond the 100x bound
+  EXPECT_TRUE(m.degraded());
+  EXPECT_DOUBLE_EQ(m.variance("BARO", "B1", 0.0001), 0.01);
+  EXPECT_NE(m.problems().find("at its bound"), std::string::npos) << m.problems();
+}
+
+TEST(ConsistencyMonitor, OutliersDoNotMakeAChannelNoisy) {
+  std::mt19937 rng(4);
+  ConsistencyMonitor m;
+  std::normal_distribution<double> n01(0.0, 1.0);
+  for (int i = 0; i < 100; ++i) {
+    const double r = i % 5 == 0 ? 50.0 : n01(rng);  // 20 % gross outliers, all gated
+    m.add_scalar("RANGE", "A1", i * 0.1, r, 0.0, 1.0, i % 5 == 0, "range_sigma_m 1");
+  }
+  const auto v = m.verdicts();
+  EXPECT_EQ(v[0].state, ConsistencyMonitor::State::kOk) << m.problems();
+  EXPECT_NEAR(v[0].gated_share, 0.2, 0.02);
+  EXPECT_EQ(m.problems(), "");  // 20 % gated is below the 30 % said
+}
+
+TEST(ConsistencyMonitor, MostlyGatedAndTooQuietAreSaid) {
+  ConsistencyMonitor m;
+  for (int i = 0; i < 30; ++i) m.add_nis("ANGLE", "A2", i * 0.1, 0.02, 2, i % 2 == 0);
+  const std::string p = m.problems();
+  EXPECT_NE(p.find("ANGLE A2: innovations 0.0x their assumed variance"), std::string::npos) << p;
+  EXPECT_NE(p.find("50% of its measurements gated"), std::string::npos) << p;
+  EXPECT_FALSE(m.degraded());  // too quiet is said, not a fault
+}
+
+TEST(ConsistencyMonitor, WindowForgetsAndTimeBackRestarts) {
+  std::mt19937 rng(5);
+  ConsistencyMonitor m;
+  feed(m, "B1", 50, 10.0, 0.0, 100.0, 1.0, rng);  // noisy for 5 s
+  EXPECT_EQ(m.verdicts()[0].state, ConsistencyMonitor::State::kNoisy);
+  feed(m, "B1", 250, 10.0, 0.0, 1.0, 1.0, rng, 5.0);  // then 25 s of good data: 20 s window
+  EXPECT_EQ(m.verdicts()[0].state, ConsistencyMonitor::State::kOk) << m.problems();
+  feed(m, "B1", 5, 10.0, 0.0, 1.0, 1.0, rng, -100.0);  // a clock back: a fresh window
+  EXPECT_EQ(m.verdicts()[0].n, 5u);
+  EXPECT_EQ(m.verdicts()[0].state, ConsistencyMonitor::State::kTooFew);
+}
+
+struct FakeNode {
+  std::string consistency, lasting;
+  int reports = 0, ends = 0;
+  void set_consistency(std::string s) { consistency = std::move(s); }
+  void report_lasting_error(const std::string&, const std::string& t) {
+    lasting = t;
+    ++reports;
+  }
+  void end_lasting_error(const std::string&) { ++ends; }
+};
+
+TEST(ConsistencyHealth, DegradesWhileUncompensatedAndEnds) {
+  ConsistencyOptions o;
+  o.learn = false;
+  ConsistencyMonitor m(o);
+  FakeNode node;
+  ConsistencyHealth h;
+  std::mt19937 rng(6);
+  feed(m, "B1", 30, 10.0, 0.0, 1.0, 1.0, rng);
+  h.report(node, m);
+  EXPECT_EQ(node.reports, 0);
+  EXPECT_NE(node.consistency.find("BARO B1 "), std::string::npos);
+  feed(m, "B1", 200, 10.0, 0.0, 100.0, 1.0, rng, 3.0);
+  h.report(node, m);
+  h.report(node, m);
+  EXPECT_EQ(node.reports, 1);
+  EXPECT_NE(node.lasting.find("looks too small"), std::string::npos) << node.lasting;
+  EXPECT_EQ(node.consistency, node.lasting);
+  feed(m, "B1", 300, 10.0, 0.0, 1.0, 1.0, rng, 30.0);
+  h.report(node, m);
+  EXPECT_EQ(node.ends, 1);
+}
+
+}  // namespace
+}  // namespace ips
