@@ -126,7 +126,21 @@ int main(int argc, char** argv) {
         [&](const ips::imu_t& m, const std::string&) { est.on_imu(m); });
     // Samples that went into no step, by reason, in HEALTH (drops, last_error) once a second.
     ips::DropHealth drop_health;
-    node.add_timer(1.0, [&] { drop_health.report(node, est.drop_reasons()); });
+    std::string heading_unknown;  // devices without a gyroscope, as said in HEALTH
+    node.add_timer(1.0, [&] {
+      drop_health.report(node, est.drop_reasons());
+      std::string devices;
+      for (const std::string& d : est.accel_only_devices())
+        devices += (devices.empty() ? "" : ", ") + ips::printable(d);
+      if (devices == heading_unknown) return;
+      heading_unknown = devices;
+      if (devices.empty())
+        node.end_lasting_error("heading");
+      else
+        node.report_lasting_error("heading", "no gyroscope on " + devices +
+                                                 ": steps only, heading unknown (STEP "
+                                                 "heading_rad NaN), no POSE_PDR");
+    });
     return node.run();
   });
 }

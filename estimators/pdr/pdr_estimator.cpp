@@ -12,6 +12,9 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 // Samples per second needed per hertz of step-filter cut-off (Nyquist is 2; 4 leaves the filter
 // a usable transition band): 12 Hz for 002's 3 Hz.
 constexpr double kMinRatePerCutoff = 4.0;
+// Samples kept while aligning: 10 minutes at 100 Hz (the longest max_align_s is an hour, but a
+// phone that rests aligns within init_still_s).
+constexpr size_t kMaxPending = 60000;
 
 Eigen::Vector3d vec(const double (&v)[3]) { return {v[0], v[1], v[2]}; }
 }  // namespace
@@ -21,6 +24,8 @@ PdrParams parse_pdr_params(const YamlField& s) {
   if (!s.defined()) return p;
   if (!s.is_map()) s.fail("expected a map of pdr parameters");
   s.check_keys({"detector", "filter_order", "filter_cutoff_hz", "peak_threshold_mps2",
+                "adaptive_threshold", "adaptive_k", "adaptive_hysteresis_k",
+                "adaptive_floor_mps2", "adaptive_window_s", "gravity_window_s",
                 "zero_crossing_threshold_mps2", "min_step_interval_s", "signal", "step_model",
                 "step_k", "step_k2", "body_height_m", "levi_s0_m", "levi_f0_hz",
                 "levi_m_per_hz", "step_min_m", "step_max_m", "use_magnetometer",
@@ -45,6 +50,14 @@ PdrParams parse_pdr_params(const YamlField& s) {
   if (p.detector.filter_order != order) s["filter_order"].fail("must be an integer");
   bounded("filter_cutoff_hz", p.detector.filter_cutoff_hz, 0.1, 20);
   bounded("peak_threshold_mps2", p.detector.peak_threshold, 0, 50);
+  // A site that sets 002's fixed threshold means it, unless it asks for the adaptive one too.
+  p.detector.adaptive =
+      s.get_bool("adaptive_threshold", !s["peak_threshold_mps2"].defined());
+  bounded("adaptive_k", p.detector.adaptive_k, 0, 10);
+  bounded("adaptive_hysteresis_k", p.detector.adaptive_hysteresis_k, -10, 10);
+  bounded("adaptive_floor_mps2", p.detector.adaptive_floor_mps2, 0, 50);
+  bounded("adaptive_window_s", p.detector.adaptive_window_s, 0.1, 600);
+  bounded("gravity_window_s", p.gravity_window_s, 0.1, 3600);
   bounded("zero_crossing_threshold_mps2", p.detector.zero_crossing_threshold, 0, 50);
   bounded("min_step_interval_s", p.detector.min_step_interval_s, 0.05, 5);
   const std::string sig = s.get_string("signal", "vertical");
@@ -108,8 +121,9 @@ void PdrEstimator::on_imu(const imu_t& m) {
     return;
   }
   const Eigen::Vector3d a = vec(m.accel), g = vec(m.gyro);
-  if (!plausible_utime(m.utime) || !a.allFinite() || !g.allFinite() || m.device_id.empty() ||
-      a.norm() > 1000 || g.norm() > 100) {
+  const bool has_gyro = g.allFinite();
+  if (!plausible_utime(m.utime) || !a.allFinite() || m.device_id.empty() || a.norm() > 1000 ||
+      (has_gyro && g.norm() > 100)) {
     ++stats_.dropped_invalid;
     return;
   }
@@ -129,37 +143,51 @@ void PdrEstimator::on_imu(const imu_t& m) {
     it = tracks_.emplace(m.device_id, Track{}).first;
     it->second.first_utime = m.utime;
     it->second.rest_start = m.utime;
+    it->second.accel_only = !has_gyro;
+    if (!has_gyro) ++stats_.accel_only_tracks;
   } else if (m.utime <= it->second.last_utime) {
     ++stats_.dropped_time;
     return;
   }
   Track& t = it->second;
+  if (!t.accel_only && !has_gyro) {  // a device with a gyroscope lost it for this sample
+    ++stats_.dropped_invalid;
+    return;
+  }
+  const Sample sample{m.utime, a, t.accel_only ? Eigen::Vector3d::Zero() : g,
+                      t.accel_only ? Eigen::Vector3d::Constant(kNaN) : vec(m.mag_ut)};
   const double dt = t.last_utime ? utime_to_s(m.utime - t.last_utime) : 0.0;
   t.last_utime = m.utime;
   if (dt > params_.max_gap_s) ++stats_.gaps;
   const bool usable_dt = dt > 0 && dt <= params_.max_gap_s;
 
   if (!t.aligned) {
+    // Kept for the replay once aligned (bounded: a refused IMU keeps waiting).
+    if (t.pending.size() < kMaxPending) t.pending.push_back(sample);
+    else ++stats_.samples_aligning;
     t.all_a += a;
+    t.all_norm += a.norm();
     ++t.n_all;
-    if (vec(m.mag_ut).allFinite()) {
-      t.all_m += vec(m.mag_ut);
+    if (sample.mag.allFinite()) {
+      t.all_m += sample.mag;
       ++t.n_all_mag;
     }
     // Rest: gravity-sized specific force and a small rate; anything else restarts the window.
     const bool rest = std::abs(a.norm() - params_.gravity_mps2) < params_.still_accel_mps2 &&
-                      g.norm() < params_.still_gyro_rad_s;
+                      sample.g.norm() < params_.still_gyro_rad_s;
     if (!rest) {
       t.sum_a.setZero();
       t.sum_g.setZero();
       t.sum_m.setZero();
+      t.sum_norm = 0;
       t.n = t.n_mag = 0;
       t.rest_start = m.utime;
     } else {
       t.sum_a += a;
-      t.sum_g += g;
-      if (vec(m.mag_ut).allFinite()) {
-        t.sum_m += vec(m.mag_ut);
+      t.sum_g += sample.g;
+      t.sum_norm += a.norm();
+      if (sample.mag.allFinite()) {
+        t.sum_m += sample.mag;
         ++t.n_mag;
       }
       ++t.n;
@@ -176,19 +204,39 @@ void PdrEstimator::on_imu(const imu_t& m) {
       // at the next rest); a looser attitude.
       t.sum_a = t.all_a;
       t.sum_g.setZero();
+      t.sum_norm = t.all_norm;
       t.n = t.n_all;
       t.sum_m = t.all_m;
       t.n_mag = t.n_all_mag;
       align(t, m.device_id, false);
     }
-    if (!t.aligned) ++stats_.samples_aligning;
+    if (!t.aligned) return;
+    // Aligned on this sample: replay the window's samples (this one included) through the
+    // step detector with the attitude just found.
+    std::vector<Sample> pending;
+    pending.swap(t.pending);
+    utime_t prev = 0;
+    for (const Sample& p : pending) {
+      const double pdt = prev ? utime_to_s(p.utime - prev) : 0.0;
+      prev = p.utime;
+      if (!(pdt > 0 && pdt <= params_.max_gap_s)) continue;  // the first, or after a gap
+      ++stats_.samples_replayed;
+      walk(t, m.device_id, p, pdt, true);
+    }
     return;
   }
   if (!usable_dt) {
     ++stats_.dropped_gap;
     return;
   }
-  walk(t, m.device_id, m, dt);
+  walk(t, m.device_id, sample, dt, false);
+}
+
+std::vector<std::string> PdrEstimator::accel_only_devices() const {
+  std::vector<std::string> out;
+  for (const auto& [id, t] : tracks_)
+    if (t.accel_only) out.push_back(id);
+  return out;
 }
 
 void PdrEstimator::align(Track& t, const std::string& tag_id, bool rested) {
@@ -197,9 +245,12 @@ void PdrEstimator::align(Track& t, const std::string& tag_id, bool rested) {
   const double rate_hz = t.n_dt / t.sum_dt;
   if (!(rate_hz >= kMinRatePerCutoff * params_.detector.filter_cutoff_hz)) {
     ++stats_.alignments_too_slow;
+    stats_.samples_aligning += static_cast<int64_t>(t.pending.size());
     const utime_t now = t.last_utime;
+    const bool accel_only = t.accel_only;
     t = Track{};  // a fresh alignment window from this sample
     t.first_utime = t.rest_start = t.last_utime = now;
+    t.accel_only = accel_only;
     return;
   }
   const Tag* tag = site_->find_tag(tag_id);
@@ -210,8 +261,11 @@ void PdrEstimator::align(Track& t, const std::string& tag_id, bool rested) {
                                   ? Eigen::Vector3d(t.sum_m / t.n_mag)
                                   : Eigen::Vector3d::Constant(kNaN);
   // Without the magnetometer the device x axis points at the walking heading + offset - 90 deg.
-  t.ekf.initialise(t.sum_a / t.n, t.sum_g / t.n, mag, params_.field,
-                   start_heading + offset - M_PI / 2, rested ? 0.002 : 0.05);
+  if (!t.accel_only)
+    t.ekf.initialise(t.sum_a / t.n, t.sum_g / t.n, mag, params_.field,
+                     start_heading + offset - M_PI / 2, rested ? 0.002 : 0.05);
+  // The phone's own gravity: accelerometers read 1 to 3 % off 9.81 (scale, offsets).
+  t.gravity = t.sum_norm / t.n;
   t.detector = std::make_unique<StepDetector>(params_.detector, t.n_dt / t.sum_dt);
   if (tag && tag->has_start()) {
     t.position = tag->start_position.head<2>();
@@ -226,25 +280,41 @@ void PdrEstimator::align(Track& t, const std::string& tag_id, bool rested) {
   if (!rested) ++stats_.alignments_without_rest;
 }
 
-void PdrEstimator::walk(Track& t, const std::string& tag_id, const imu_t& m, double dt) {
-  const Eigen::Vector3d a = vec(m.accel), g = vec(m.gyro), mag = vec(m.mag_ut);
-  t.ekf.predict(g, dt, params_.noise);
-  const bool still_now = std::abs(a.norm() - params_.gravity_mps2) < params_.still_accel_mps2 &&
-                         (g - t.ekf.bias()).norm() < params_.still_gyro_rad_s;
-  t.still_s = still_now ? t.still_s + dt : 0.0;
-  const bool still = t.still_s >= params_.still_window_s;
-  t.ekf.update_gravity(a, still ? params_.noise.gravity_sigma_still
-                                : params_.noise.gravity_sigma_moving);
-  if (still) t.ekf.update_zero_rate(g, params_.noise.zero_rate_sigma_rad_s);
-  if (params_.use_magnetometer && mag.allFinite() &&
-      utime_to_s(m.utime - t.last_mag_update) >= params_.mag_update_period_s) {
-    t.last_mag_update = m.utime;
-    if (t.ekf.update_mag_heading(mag, params_.field, params_.mag_norm_tolerance,
-                                 deg_to_rad(params_.mag_dip_tolerance_deg),
-                                 params_.noise.mag_heading_sigma_rad))
-      ++stats_.mag_updates;
-    else
-      ++stats_.mag_rejected;
+void PdrEstimator::walk(Track& t, const std::string& tag_id, const Sample& m, double dt,
+                        bool replay) {
+  const Eigen::Vector3d& a = m.a;
+  if (t.accel_only) {
+    // Gravity: the running mean of |a| (walking adds a little; the detector's own running
+    // mean takes out what remains).
+    t.gravity += std::min(1.0, dt / params_.gravity_window_s) * (a.norm() - t.gravity);
+    const auto step = t.detector->add(m.utime, a.norm() - t.gravity);
+    if (step) emit_step(t, tag_id, *step, kNaN);
+    return;
+  }
+  const Eigen::Vector3d& g = m.g;
+  const Eigen::Vector3d& mag = m.mag;
+  if (!replay) {
+    t.ekf.predict(g, dt, params_.noise);
+    const bool still_now = std::abs(a.norm() - t.gravity) < params_.still_accel_mps2 &&
+                           (g - t.ekf.bias()).norm() < params_.still_gyro_rad_s;
+    t.still_s = still_now ? t.still_s + dt : 0.0;
+    const bool still = t.still_s >= params_.still_window_s;
+    t.ekf.update_gravity(a, still ? params_.noise.gravity_sigma_still
+                                  : params_.noise.gravity_sigma_moving);
+    if (still) {
+      t.ekf.update_zero_rate(g, params_.noise.zero_rate_sigma_rad_s);
+      t.gravity += std::min(1.0, dt / params_.gravity_window_s) * (a.norm() - t.gravity);
+    }
+    if (params_.use_magnetometer && mag.allFinite() &&
+        utime_to_s(m.utime - t.last_mag_update) >= params_.mag_update_period_s) {
+      t.last_mag_update = m.utime;
+      if (t.ekf.update_mag_heading(mag, params_.field, params_.mag_norm_tolerance,
+                                   deg_to_rad(params_.mag_dip_tolerance_deg),
+                                   params_.noise.mag_heading_sigma_rad))
+        ++stats_.mag_updates;
+      else
+        ++stats_.mag_rejected;
+    }
   }
   const double heading =
       t.ekf.heading_of(Eigen::Vector3d::UnitY()) - deg_to_rad(params_.phone_yaw_offset_deg);
@@ -252,14 +322,33 @@ void PdrEstimator::walk(Track& t, const std::string& tag_id, const imu_t& m, dou
   t.sum_sin += std::sin(heading);
 
   const Eigen::Vector3d a_world = t.ekf.q() * a;
-  const double signal = params_.signal == StepSignal::kVertical
-                            ? a_world.z() - params_.gravity_mps2
-                            : a.norm() - params_.gravity_mps2;
+  const double signal = params_.signal == StepSignal::kVertical ? a_world.z() - t.gravity
+                                                                : a.norm() - t.gravity;
   const auto step = t.detector->add(m.utime, signal);
   if (!step) return;
   const double theta = std::atan2(t.sum_sin, t.sum_cos);
   t.sum_cos = t.sum_sin = 0;
-  const double sl = step_length(params_.length, *step);
+  emit_step(t, tag_id, *step, theta);
+}
+
+void PdrEstimator::emit_step(Track& t, const std::string& tag_id, const DetectedStep& step,
+                             double theta) {
+  const double sl = step_length(params_.length, step);
+  ++t.steps;
+  ++stats_.steps;
+  if (!std::isfinite(theta)) {  // heading unknown: the step alone, no position
+    ++stats_.steps_heading_unknown;
+    step_t s;
+    s.utime = step.utime;
+    s.source = source_;
+    s.tag_id = tag_id;
+    s.index = t.steps;
+    s.length_m = sl;
+    s.heading_rad = kNaN;
+    s.cadence_hz = step.interval_s > 0 ? 1.0 / step.interval_s : 0.0;
+    step_sink_(s);
+    return;
+  }
   const Eigen::Vector2d dir(std::cos(theta), std::sin(theta));
   t.position += sl * dir;
   // Along the step: the length's noise; across it: the heading's.
@@ -267,21 +356,19 @@ void PdrEstimator::walk(Track& t, const std::string& tag_id, const imu_t& m, dou
   const double across = sl * sl * std::max(t.ekf.yaw_variance(), 0.0);
   const Eigen::Vector2d perp(-dir.y(), dir.x());
   t.cov += along * dir * dir.transpose() + across * perp * perp.transpose();
-  ++t.steps;
-  ++stats_.steps;
 
   step_t s;
-  s.utime = step->utime;
+  s.utime = step.utime;
   s.source = source_;
   s.tag_id = tag_id;
   s.index = t.steps;
   s.length_m = sl;
   s.heading_rad = theta;
-  s.cadence_hz = step->interval_s > 0 ? 1.0 / step->interval_s : 0.0;
+  s.cadence_hz = step.interval_s > 0 ? 1.0 / step.interval_s : 0.0;
   step_sink_(s);
 
   pose_t p;
-  p.utime = step->utime;
+  p.utime = step.utime;
   p.source = source_;
   p.tag_id = tag_id;
   p.position[0] = t.position.x();

@@ -13,6 +13,15 @@
 //      y axis) minus phone_yaw_offset_deg (the phone's yaw relative to the walking direction).
 //   5. Position (002 (4.6)): x += SL cos(theta), y += SL sin(theta), theta from +x
 //      counter-clockwise, from the tag's start position in the site.
+//   6. Accelerometer only (the gyroscope NaN, as many phones and the Oxford step counter
+//      dataset record): steps are counted on the norm of the specific force minus the phone's
+//      own gravity, and published on STEP with heading_rad NaN (heading unknown); no POSE_PDR.
+//      A device's first sample decides: with a gyroscope, later samples without one are
+//      invalid; without one, a gyroscope appearing later is not used.
+// Samples taken while aligning are kept and replayed through the step detector once aligned
+// (with the attitude found at alignment), so the steps of a walk that starts before the
+// alignment ends are counted. Gravity is the phone's own: the mean |a| of the alignment
+// window, then refined (a running mean of |a| while still; always, without a gyroscope).
 // Pure: takes messages, emits through callbacks, never reads a clock.
 #include <functional>
 #include <ips/imu_t.hpp>
@@ -22,6 +31,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "core/drop_reasons.hpp"
 #include "core/time_guard.hpp"
@@ -45,7 +55,8 @@ struct PdrParams {
   double mag_dip_tolerance_deg = 8.0;
   double mag_update_period_s = 0.5;      // disturbances are correlated: not every sample
   double phone_yaw_offset_deg = 0.0;     // phone's top relative to the walking direction, CCW
-  double gravity_mps2 = 9.81;
+  double gravity_mps2 = 9.81;            // only to recognise rest before the phone's own is known
+  double gravity_window_s = 10.0;        // time constant of the phone's own gravity estimate
   double init_still_s = 1.0;             // rest needed before the first step
   double max_align_s = 2.0;              // without rest: start after this long, from the mean
   double still_gyro_rad_s = 0.05;        // still: |omega - b| below this ...
@@ -65,7 +76,10 @@ struct PdrStats {
   int64_t dropped_time = 0;        // not after the device's previous sample
   int64_t gaps = 0;                // samples after a gap longer than max_gap_s
   int64_t dropped_gap = 0;         // of those, samples of an aligned track: not integrated
-  int64_t samples_aligning = 0;    // taken while the device is not aligned yet
+  int64_t samples_aligning = 0;    // taken while aligning and lost (buffer full, IMU refused)
+  int64_t samples_replayed = 0;    // taken while aligning, replayed once aligned
+  int64_t accel_only_tracks = 0;   // devices without a gyroscope: steps, heading unknown
+  int64_t steps_heading_unknown = 0;
   int64_t dropped_no_site = 0;
   int64_t dropped_too_many_tags = 0;
   int64_t alignments = 0;
@@ -107,10 +121,20 @@ class PdrEstimator {
   // Time plausibility of the inputs, per sender (core/time_guard.hpp).
   const TimeGuardStats& time_stats() const { return guard_.stats(); }
   const PdrParams& params() const { return params_; }
+  // Devices seen without a gyroscope (steps only, heading unknown), for HEALTH.
+  std::vector<std::string> accel_only_devices() const;
 
  private:
+  struct Sample {
+    utime_t utime = 0;
+    Eigen::Vector3d a, g, mag;
+  };
   struct Track {
     bool aligned = false;
+    bool accel_only = false;     // no gyroscope: steps only
+    double gravity = 0;          // the phone's own |g|, m/s^2
+    std::vector<Sample> pending;  // taken while aligning, replayed once aligned
+    double sum_norm = 0, all_norm = 0;  // sums of |a| over the rest / since the first sample
     utime_t first_utime = 0, last_utime = 0;
     // Alignment sums over the current rest.
     Eigen::Vector3d sum_a = Eigen::Vector3d::Zero(), sum_g = Eigen::Vector3d::Zero(),
@@ -135,7 +159,9 @@ class PdrEstimator {
   };
 
   void align(Track& t, const std::string& tag_id, bool rested);
-  void walk(Track& t, const std::string& tag_id, const imu_t& m, double dt);
+  // One sample of an aligned track; `replay`: taken while aligning (no attitude update).
+  void walk(Track& t, const std::string& tag_id, const Sample& m, double dt, bool replay);
+  void emit_step(Track& t, const std::string& tag_id, const DetectedStep& step, double theta);
 
   StepSink step_sink_;
   PoseSink pose_sink_;

@@ -61,6 +61,7 @@ std::vector<DetectedStep> detect(const StepDetectorParams& p, double fs, double 
 
 TEST(StepDetector, PeaksCountOneStepPerCycleWithTheSourceThreshold) {
   StepDetectorParams p;
+  p.adaptive = false;  // 002's fixed a_th
   const auto steps = detect(p, 100, 1.8, 2.87, 12.0);  // 10 s of walking at 1.8 Hz
   EXPECT_EQ(steps.size(), 18u);
   // Away from the start and the end (the filter rings at the onset), one step per cycle.
@@ -68,6 +69,27 @@ TEST(StepDetector, PeaksCountOneStepPerCycleWithTheSourceThreshold) {
   // The 1.8 Hz cosine passes the 3 Hz filter almost untouched: a_max - a_min = 2 A.
   EXPECT_NEAR(steps[5].a_max - steps[5].a_min, 2 * 2.87, 0.02);
   EXPECT_TRUE(detect(p, 100, 1.8, 1.9, 12.0).empty());  // below a_th = 2: no step
+}
+
+// The adaptive threshold (issue 22): gentle hand-held steps (+-0.8 m/s^2, below 002's fixed
+// 2 m/s^2) are all counted, as are strong ones; a phone at rest, whose signal is only sensor
+// noise (0.05 m/s^2 rms), counts none (the floor), and neither does a constant offset.
+TEST(StepDetector, AdaptiveThresholdFollowsTheTracesOwnDynamics) {
+  StepDetectorParams p;
+  ASSERT_TRUE(p.adaptive);
+  EXPECT_EQ(detect(p, 100, 1.8, 0.8, 12.0).size(), 18u);
+  EXPECT_EQ(detect(p, 100, 1.8, 6.0, 12.0).size(), 18u);
+  EXPECT_EQ(detect(p, 100, 2.2, 0.8, 12.0).size(), 22u);
+  StepDetector rest(p, 100);
+  uint64_t lcg = 12345;
+  int steps = 0;
+  for (int i = 0; i < 3000; ++i) {
+    lcg = lcg * 6364136223846793005ULL + 1442695040888963407ULL;
+    const double u = static_cast<double>(lcg >> 11) / 9007199254740992.0;  // [0, 1)
+    const double noise = 0.05 * std::sqrt(12.0) * (u - 0.5) + 0.3;          // offset 0.3
+    if (rest.add(kT0 + i * 10000, noise)) ++steps;
+  }
+  EXPECT_EQ(steps, 0);
 }
 
 TEST(StepDetector, NoTwoStepsWithin033Seconds) {
@@ -230,6 +252,46 @@ TEST(PdrEstimator, AnImuTooSlowForTheStepFilterIsRefused) {
   EXPECT_EQ(est.stats().alignments, 0);
   EXPECT_GE(est.stats().alignments_too_slow, 1);
   EXPECT_EQ(steps, 0);
+}
+
+// A phone with an accelerometer only (gyroscope NaN, as in the Oxford step counter dataset):
+// the steps are counted, from the first sample on (the walk starts before the alignment ends:
+// the alignment window is replayed), published with heading_rad NaN, and no POSE_PDR. The
+// accelerometer reads 2 % high: gravity is the phone's own mean |a|.
+TEST(PdrEstimator, AccelerometerOnlyCountsStepsWithHeadingUnknown) {
+  std::vector<step_t> steps;
+  int poses = 0;
+  PdrEstimator est([&](const step_t& s) { steps.push_back(s); }, [&](const pose_t&) { ++poses; });
+  est.set_site(parse_site_text("name: s\nanchors: []\ntags:\n  - {id: P1, height_m: 1.1}\n", "s"));
+  imu_t m{};
+  m.device_id = "P1";
+  m.device_utime = -1;
+  const double fs = 100, hz = 1.8, g = 9.81 * 1.02;
+  for (int i = 0; i < static_cast<int>(20 * fs); ++i) {  // 20 s of walking from the start
+    const double t = i / fs;
+    m.utime = kT0 + static_cast<utime_t>(t * 1e6);
+    const double up = g + 1.0 * std::sin(2 * M_PI * hz * t);
+    m.accel[0] = 0.3 * std::cos(2 * M_PI * hz * t);
+    m.accel[1] = up * std::sin(0.3);  // held tilted
+    m.accel[2] = up * std::cos(0.3);
+    for (int k = 0; k < 3; ++k) m.gyro[k] = m.mag_ut[k] = NAN;
+    est.on_imu(m);
+  }
+  // 36 cycles; the first half cycle rises from rest and the filter's delay holds back the last.
+  EXPECT_NEAR(static_cast<double>(steps.size()), 36.0, 1.0);
+  EXPECT_EQ(poses, 0);
+  for (const step_t& s : steps) {
+    EXPECT_TRUE(std::isnan(s.heading_rad));
+    EXPECT_GT(s.length_m, 0);
+  }
+  ASSERT_FALSE(steps.empty());
+  EXPECT_LT(steps.front().utime, kT0 + 2000000);  // within the 2 s alignment: replayed
+  EXPECT_EQ(est.stats().accel_only_tracks, 1);
+  EXPECT_EQ(est.stats().steps_heading_unknown, static_cast<int64_t>(steps.size()));
+  EXPECT_GT(est.stats().samples_replayed, 150);
+  EXPECT_EQ(est.stats().samples_aligning, 0);
+  EXPECT_EQ(est.stats().dropped_invalid, 0);
+  EXPECT_EQ(est.accel_only_devices(), std::vector<std::string>{"P1"});
 }
 
 TEST(PdrEstimator, BadParametersStopWithTheField) {
