@@ -12,7 +12,8 @@
 //
 // Scalar channels can learn their noise online (on by default, off by a site setting): the
 // variance to use is the window's median r^2 / 0.455 (the chi-square(1) median) minus the median
-// prediction variance H P H', clamped to [learn_min, learn_max] x the configured variance. A
+// prediction variance H P H', clamped to [learn_min, learn_max] x the configured variance (the
+// configured value is a floor: see ConsistencyOptions). A
 // learned value within its bounds compensates, so the channel is reported but the process is
 // not degraded; at a bound, or with learning off, it is.
 #include <algorithm>
@@ -38,6 +39,13 @@ inline double chi2_median(int dof) {
   return k * c * c * c;
 }
 
+// A setting as the user writes it, for the monitor's words: "range_sigma_m 0.1".
+inline std::string setting_text(std::string_view key, double value) {
+  char buf[40];
+  std::snprintf(buf, sizeof buf, " %g", value);
+  return std::string(key) + buf;
+}
+
 struct ConsistencyOptions {
   double window_s = 20.0;    // innovations older than this (measurement time) leave the window
   size_t max_samples = 300;  // per channel, the newest kept
@@ -46,8 +54,12 @@ struct ConsistencyOptions {
   double too_quiet = 0.1;    // below this: the assumed noise is far larger than the data's
   double gated_warn = 0.3;   // a share of gated measurements above this is said
   bool learn = true;         // scalar channels learn their noise (site: <estimator>.learn_noise)
-  double learn_min = 0.25;   // learned variance bounds, times the configured variance
-  double learn_max = 100.0;  // (sigma 0.5x to 10x the configured one)
+  // Learned variance bounds, times the configured variance (sigma 1x to 20x the configured one).
+  // The configured value is a floor: innovations understate time-correlated noise (a device
+  // that smooths its ranges, a bias that the track absorbs), so a quiet channel is never taken
+  // as a reason to trust it more.
+  double learn_min = 1.0;
+  double learn_max = 400.0;
 };
 
 class ConsistencyMonitor {
@@ -132,8 +144,33 @@ class ConsistencyMonitor {
       if (!s.empty()) s += ", ";
       s += v.kind + " " + v.source + " " + fmt(v.ratio, v.ratio < 10 ? 1 : 0) + "x";
       if (v.gated_share >= 0.005) s += " " + fmt(100.0 * v.gated_share, 0) + "% gated";
-      if (v.scalar && opts_.learn && std::isfinite(v.learned_sigma) && v.state != State::kOk)
+      if (v.scalar && opts_.learn && std::isfinite(v.learned_sigma) && v.state == State::kNoisy)
         s += " (learned sigma " + fmt(v.learned_sigma, -3) + ")";
+    }
+    return s;
+  }
+  // The whole run, for a replay's summary: "RANGE A1: 2034 in, 3% gated, NIS 1.1x (worst 4.2x,
+  // noisier than assumed 5% of the time)"; channels joined by "; ".
+  std::string run_summary() const {
+    std::string s;
+    for (const auto& [key, c] : channels_) {
+      if (!s.empty()) s += "; ";
+      s += c.kind + " " + c.source + ": " + std::to_string(c.total) + " in";
+      if (c.total_gated > 0)
+        s += ", " + fmt(100.0 * static_cast<double>(c.total_gated) / static_cast<double>(c.total), 0) +
+             "% gated";
+      const Verdict v = verdict(c);
+      if (v.state != State::kTooFew) s += ", NIS " + fmt(v.ratio, v.ratio < 10 ? 1 : 0) + "x";
+      if (c.checks > 0) {
+        s += " (worst " + fmt(c.worst, c.worst < 10 ? 1 : 0) + "x";
+        if (c.checks_out > 0)
+          s += ", noisier than assumed " +
+               fmt(100.0 * static_cast<double>(c.checks_out) / static_cast<double>(c.checks), 0) +
+               "% of the time";
+        s += ")";
+      }
+      if (std::isfinite(v.learned_sigma) && v.state == State::kNoisy)
+        s += ", learned sigma " + fmt(v.learned_sigma, -3);
     }
     return s;
   }
@@ -154,6 +191,11 @@ class ConsistencyMonitor {
     bool at_bound = false;
     int since_learn = 0;
     std::deque<Sample> window;
+    // Over the whole run: samples, gated ones, and the verdicts taken every 10 samples.
+    int64_t total = 0, total_gated = 0;
+    int64_t checks = 0, checks_out = 0;  // verdicts, and those noisy or too quiet
+    double worst = NAN;                  // the largest windowed ratio seen
+    int since_check = 0;
   };
 
   static std::string key_of(std::string_view kind, std::string_view source) {
@@ -182,9 +224,18 @@ class ConsistencyMonitor {
     // A clock that went back (a restarted sender, a replay) starts the window afresh.
     if (!c.window.empty() && t < c.window.back().t - opts_.window_s) c.window.clear();
     c.window.push_back(s);
+    ++c.total;
+    c.total_gated += s.gated ? 1 : 0;
     while (c.window.size() > opts_.max_samples ||
            (!c.window.empty() && c.window.front().t < t - opts_.window_s))
       c.window.pop_front();
+    if (++c.since_check >= 10 && c.window.size() >= opts_.min_samples) {
+      c.since_check = 0;
+      const Verdict v = verdict(c);
+      ++c.checks;
+      if (v.state == State::kNoisy) ++c.checks_out;
+      if (!(c.worst >= v.ratio)) c.worst = v.ratio;
+    }
   }
   static double median(std::vector<double>& v) {
     if (v.empty()) return NAN;
@@ -206,7 +257,7 @@ class ConsistencyMonitor {
     }
     const double var = median(r2) / chi2_median(1) - median(hph);
     const double scale = var / c.r_cfg;
-    c.at_bound = !(scale > opts_.learn_min && scale < opts_.learn_max);
+    c.at_bound = !(scale < opts_.learn_max);
     c.learned_scale = std::clamp(std::isfinite(scale) ? scale : 1.0, opts_.learn_min, opts_.learn_max);
   }
   Verdict verdict(const Channel& c) const {
@@ -243,11 +294,12 @@ class ConsistencyMonitor {
     const std::string what = v.kind == "BARO" ? "sensor" : v.kind == "RANGE" || v.kind == "ANGLE"
                                                                ? "anchor"
                                                                : "input";
-    if (v.state == State::kNoisy || v.state == State::kQuiet) {
+    // Too quiet is shown in the summary, not said as a problem: small innovations also come of
+    // time-correlated noise and of errors the track absorbs, so they do not prove the setting
+    // too large.
+    if (v.state == State::kNoisy) {
       s = name + "innovations " + fmt(v.ratio, v.ratio < 10 ? 1 : 0) + "x their assumed variance";
-      if (!v.setting.empty())
-        s += "; " + v.setting + (v.state == State::kNoisy ? " looks too small" : " looks too large") +
-             " for this " + what;
+      if (!v.setting.empty()) s += "; " + v.setting + " looks too small for this " + what;
       if (std::isfinite(v.learned_sigma))
         s += std::string(v.compensated ? " (learned sigma " : " (learned sigma at its bound, ") +
              fmt(v.learned_sigma, -3) + ")";

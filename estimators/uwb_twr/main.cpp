@@ -28,7 +28,11 @@ int main(int argc, char** argv) {
         [&](const ips::uwb_range_t& m, const std::string&) { est.on_range(m); });
     // Ranges that gave no pose, by reason, in HEALTH (drops, last_error) once a second.
     ips::DropHealth drop_health;
-    node.add_timer(1.0, [&] { drop_health.report(node, est.drop_reasons()); });
+    ips::ConsistencyHealth consistency_health;
+    node.add_timer(1.0, [&] {
+      drop_health.report(node, est.drop_reasons());
+      consistency_health.report(node, est.consistency());
+    });
     return node.run();
   });
 }

@@ -17,7 +17,7 @@ TwrParams parse_twr_params(const YamlField& s) {
                 "nlos_downweight_sigma",
                 "epoch_window_s", "init_velocity_sigma_mps", "reinit_after_rejections",
                 "max_coast_s", "publish_period_s", "reorder_tolerance_s", "max_range_m",
-                "max_tags"});
+                "max_tags", "learn_noise"});
   // Every parameter is bounded, not just positive: a SITE message on the bus is outside input.
   auto positive = [&](const char* key, double& v) {
     v = s.get_double(key, v);
@@ -45,6 +45,7 @@ TwrParams parse_twr_params(const YamlField& s) {
       static_cast<int>(s.get_int("reinit_after_rejections", p.reinit_after_rejections));
   if (p.reinit_after_rejections < 1 || p.reinit_after_rejections > 1000000)
     s["reinit_after_rejections"].fail("must be in [1, 1000000]");
+  p.learn_noise = s.get_bool("learn_noise", p.learn_noise);
   p.max_tags = static_cast<int>(s.get_int("max_tags", p.max_tags));
   if (p.max_tags < 1 || p.max_tags > 100000) s["max_tags"].fail("must be in [1, 100000]");
   return p;
@@ -55,6 +56,10 @@ TwrEstimator::TwrEstimator(PoseSink sink, std::string source_name)
 
 void TwrEstimator::set_site(const Site& site) {
   params_ = parse_twr_params(site.estimator_params("uwb_twr"));
+  ConsistencyOptions co;
+  co.learn = params_.learn_noise;
+  consistency_ = ConsistencyMonitor(co);
+  range_setting_ = setting_text("range_sigma_m", params_.range_sigma_m);
   site_ = site;
   tracks_.clear();
   enabled_uwb_anchors_ = 0;
@@ -175,12 +180,16 @@ void TwrEstimator::update(Track& t, CvFilter<D>& f, size_t anchor_index, const u
     t.filter_utime = m.utime;
   }
   RangeNoise noise;
-  noise.r_var = params_.range_sigma_m * params_.range_sigma_m;
+  const double r_cfg = params_.range_sigma_m * params_.range_sigma_m;
+  const std::string& anchor_id = site_->anchors[anchor_index].id;
+  noise.r_var = consistency_.variance("RANGE", anchor_id, r_cfg);
   noise.gate_chi2 = params_.gate_sigma * params_.gate_sigma;
   noise.gate_chi2_positive = params_.nlos_gate_sigma * params_.nlos_gate_sigma;
   noise.downweight_sigma = params_.nlos_downweight_sigma;
   const RangeUpdate r = range_update<D>(f, site_->anchors[anchor_index].position, t.height_m,
                                         m.range_m, noise);
+  consistency_.add_scalar("RANGE", anchor_id, utime_to_s(m.utime), r.innovation_m, r.hph, r_cfg,
+                          !r.accepted, range_setting_);
   if (!r.accepted) {
     ++stats_.rejected_gate;
     if (++t.consecutive_rejections >= params_.reinit_after_rejections) t.initialised = false;

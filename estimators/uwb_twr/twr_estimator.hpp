@@ -22,6 +22,7 @@
 #include "core/site.hpp"
 #include "core/cv_filter.hpp"
 #include "core/drop_reasons.hpp"
+#include "core/consistency.hpp"
 #include "core/time_guard.hpp"
 #include "estimators/uwb_twr/models/uwb_range.hpp"
 
@@ -46,6 +47,9 @@ struct TwrParams {
   double reorder_tolerance_s = 0.05;  // ranges this far behind the tag's newest are still used
   double max_range_m = 300.0;
   int max_tags = 1000;            // tracks kept at most (ids off the bus must not exhaust memory)
+  // Learn each anchor's range noise from its innovations (core/consistency.hpp), within
+  // [0.5, 10] x range_sigma_m.
+  bool learn_noise = true;
 };
 
 // Reads `estimators.uwb_twr` of the site; throws ConfigError on a bad value.
@@ -103,6 +107,8 @@ class TwrEstimator {
   // Time plausibility of the inputs, per sender (core/time_guard.hpp).
   const TimeGuardStats& time_stats() const { return guard_.stats(); }
   const TwrParams& params() const { return params_; }
+  // Each anchor's range innovations against range_sigma_m (core/consistency.hpp).
+  const ConsistencyMonitor& consistency() const { return consistency_; }
 
  private:
   struct Epoch {
@@ -144,6 +150,8 @@ class TwrEstimator {
   int enabled_uwb_anchors_ = 0;
   TwrStats stats_;
   TimeGuard guard_;  // per sender (core/time_guard.hpp)
+  ConsistencyMonitor consistency_;
+  std::string range_setting_;  // "range_sigma_m 0.1", as the monitor names it
 };
 
 }  // namespace ips::uwb_twr

@@ -108,6 +108,10 @@ int main(int argc, char** argv) {
       } else {
         spdlog::info("ips-replay: {}", a.line);
       }
+      if (!a.consistency.empty())
+        spdlog::info("ips-replay: {}: consistency: {}", a.name, a.consistency);
+      if (!a.consistency_problems.empty())
+        spdlog::warn("ips-replay: {}: at the end: {}", a.name, a.consistency_problems);
     }
     if (!why.empty()) {
       ips::print_fatal("ips-replay", why);

@@ -324,8 +324,13 @@ void ReplayHost::process(const std::string& channel, int64_t timestamp, const ui
 std::vector<EstimatorAccount> ReplayHost::accounts() const {
   const auto ch = [this](const char* kind) { return channels_.channel(kind); };
   std::vector<EstimatorAccount> out;
-  auto account = [&](Hosted index, const char* name, std::string inputs, DropReasons drops) {
+  auto account = [&](Hosted index, const char* name, std::string inputs, const auto& est) {
+    const DropReasons drops = est.drop_reasons();
     EstimatorAccount a;
+    if constexpr (requires { est.consistency().run_summary(); }) {
+      a.consistency = est.consistency().run_summary();
+      a.consistency_problems = est.consistency().problems();
+    }
     a.name = name;
     a.inputs = std::move(inputs);
     a.messages_in = counts_[index].in;
@@ -346,13 +351,13 @@ std::vector<EstimatorAccount> ReplayHost::accounts() const {
       a.line += " (the log has no SITE: give --site FILE)";
     out.push_back(std::move(a));
   };
-  if (twr_) account(kTwrIndex, kUwbTwr, ch(channel::kUwbRange), twr_->drop_reasons());
-  if (tdoa_) account(kTdoaIndex, kUwbTdoa, ch(channel::kUwbRx), tdoa_->drop_reasons());
-  if (aoa_) account(kAoaIndex, kAoa, ch(channel::kBleAoa), aoa_->drop_reasons());
-  if (pdr_) account(kPdrIndex, kPdr, ch(channel::kImu), pdr_->drop_reasons());
-  if (ins_) account(kInsIndex, kIns, ch(channel::kImu), ins_->drop_reasons());
-  if (altitude_) account(kAltitudeIndex, kAltitude, ch(channel::kBaro), altitude_->drop_reasons());
-  if (fuse_) account(kFuseIndex, kFuse, "messages", fuse_->drop_reasons());
+  if (twr_) account(kTwrIndex, kUwbTwr, ch(channel::kUwbRange), *twr_);
+  if (tdoa_) account(kTdoaIndex, kUwbTdoa, ch(channel::kUwbRx), *tdoa_);
+  if (aoa_) account(kAoaIndex, kAoa, ch(channel::kBleAoa), *aoa_);
+  if (pdr_) account(kPdrIndex, kPdr, ch(channel::kImu), *pdr_);
+  if (ins_) account(kInsIndex, kIns, ch(channel::kImu), *ins_);
+  if (altitude_) account(kAltitudeIndex, kAltitude, ch(channel::kBaro), *altitude_);
+  if (fuse_) account(kFuseIndex, kFuse, "messages", *fuse_);
   return out;
 }
 

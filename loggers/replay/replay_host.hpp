@@ -56,6 +56,10 @@ struct EstimatorAccount {
   // asked for by name (--only): worth a warning. An estimator hosted by default that only waited
   // (an INS that never saw a foot at rest in a hand-held phone's IMU) is not.
   bool warn = false;
+  // Its innovations against the noise it assumes over the run (core/consistency.hpp
+  // run_summary()), and the channels out of line at the end in words; "" when not checked.
+  std::string consistency;
+  std::string consistency_problems;
 };
 
 class ReplayHost {

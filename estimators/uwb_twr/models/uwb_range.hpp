@@ -27,6 +27,7 @@ struct RangeUpdate {
   bool downweighted = false;
   double innovation_m = 0;  // z - h(x) before the update
   double normalised = 0;    // innovation / sqrt(H P H' + r_var)
+  double hph = 0;           // the prediction's variance H P H' (m^2)
 };
 
 // On any state whose first D elements are the position (D = 2: the height fixed at `height`):
@@ -49,6 +50,7 @@ RangeUpdate range_update_state(Vec<N>& x, Mat<N>& P, const Eigen::Vector3d& anch
   // Only the position block of H is non-zero.
   const double hph = H.template head<D>() * P.template topLeftCorner<D, D>() *
                      H.template head<D>().transpose();
+  out.hph = hph;
   const double S = hph + noise.r_var;
   if (!(S > 0) || !std::isfinite(out.innovation_m)) return out;
   out.normalised = out.innovation_m / std::sqrt(S);
