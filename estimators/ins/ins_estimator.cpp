@@ -1,6 +1,8 @@
 #include "estimators/ins/ins_estimator.hpp"
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 
 #include "core/geometry.hpp"
@@ -9,9 +11,26 @@
 namespace ips::ins {
 
 namespace {
+// A setting or duration as a user writes it: "0.01", "5.2".
+std::string format_setting(double v) {
+  char b[32];
+  std::snprintf(b, sizeof b, "%g", v);
+  return b;
+}
+std::string format_seconds(double v) {
+  char b[32];
+  std::snprintf(b, sizeof b, "%.1f", v);
+  return b;
+}
 // Beyond any MEMS IMU's range (16 g, 2000 deg/s is typical): a corrupt sample, not a motion.
 constexpr double kMaxAccelMps2 = 1000.0;
 constexpr double kMaxRateRps = 100.0;
+// The filter's yaw is relative to the start heading, so it starts (nearly) exact: OpenShoe's
+// sigma_initial_att. Yaw is unobservable from ZUPTs; given a larger variance (the start
+// heading's uncertainty, 1 deg) the ZUPTs rotate the track by whatever velocity error the
+// swing left (on foot-openshoe: the loop's end 1.04 m from its start instead of 0.44 m).
+const double kRelativeYawSigmaRad = deg_to_rad(0.1);
+constexpr double kZuptNisPeriodS = 0.05;
 }  // namespace
 
 InsParams parse_ins_params(const YamlField& s) {
@@ -22,7 +41,7 @@ InsParams parse_ins_params(const YamlField& s) {
                 "detector_gyro_sigma_dps", "detector_threshold", "min_stance_s", "alignment_s",
                 "accel_noise_mps2", "gyro_noise_dps", "zupt_sigma_mps", "initial_position_sigma_m",
                 "initial_velocity_sigma_mps", "initial_tilt_sigma_deg", "initial_heading_sigma_deg",
-                "max_gap_s", "publish_period_s", "max_tags"});
+                "min_swing_s", "min_swing_rate_dps", "max_swing_s", "stance_timeout_s", "max_gap_s", "publish_period_s", "max_tags"});
   // Every parameter is bounded: a SITE message on the bus is outside input.
   auto bounded = [&](const char* key, double v, double lo, double hi) {
     v = s.get_double(key, v);
@@ -47,6 +66,10 @@ InsParams parse_ins_params(const YamlField& s) {
   p.detector.threshold = bounded("detector_threshold", p.detector.threshold, 1e-6, 1e15);
   p.min_stance_s = bounded("min_stance_s", p.min_stance_s, 0, 10);
   p.alignment_s = bounded("alignment_s", p.alignment_s, 0.001, 3600);
+  p.min_swing_s = bounded("min_swing_s", p.min_swing_s, 0, 10);
+  p.min_swing_rate_dps = bounded("min_swing_rate_dps", p.min_swing_rate_dps, 0, 10000);
+  p.max_swing_s = bounded("max_swing_s", p.max_swing_s, 0.01, 3600);
+  p.stance_timeout_s = bounded("stance_timeout_s", p.stance_timeout_s, 0.01, 3600);
   p.accel_noise_mps2 = bounded("accel_noise_mps2", p.accel_noise_mps2, 1e-6, 100);
   p.gyro_noise_rps =
       deg_to_rad(bounded("gyro_noise_dps", rad_to_deg(p.gyro_noise_rps), 1e-6, 1000));
@@ -72,6 +95,7 @@ void InsEstimator::set_site(const Site& site) {
   params_ = params;
   site_ = site;
   tracks_.clear();
+  consistency_ = ConsistencyMonitor();
 }
 
 std::optional<InsTrackSummary> InsEstimator::track(const std::string& tag_id) const {
@@ -119,6 +143,7 @@ void InsEstimator::on_imu(const imu_t& m) {
     it = tracks_.try_emplace(m.device_id).first;
     Track& fresh = it->second;
     fresh.detector = StanceDetector(params_.detector);
+    fresh.first_utime = m.utime;
     const Tag* tag = site_->find_tag(m.device_id);
     if (tag && tag->has_start()) {
       fresh.start.position_m = tag->start_position;
@@ -172,9 +197,15 @@ void InsEstimator::on_imu(const imu_t& m) {
       t.still_samples = 0;
       return;
     }
-    // The foot moves: navigation proper starts from this sample.
+    // The foot moves: navigation proper starts from this sample. The still start is a believed
+    // stance (a break shorter than min_swing_s continues it).
     t.refining = false;
     t.in_stance = false;
+    t.stance_since = t.still_since;
+    t.stance_counted = true;
+    t.stance_believed = true;
+    t.last_believed_utime = t.last_stance_utime = m.utime;
+    t.swing_peak_rps = 0;
     t.have_stance_position = true;
     t.last_stance_position = t.filter.position();
   }
@@ -210,7 +241,8 @@ void InsEstimator::align(Track& t) {
     P0(kVel + i, kVel + i) = sv * sv;
   }
   P0(kAtt, kAtt) = P0(kAtt + 1, kAtt + 1) = st * st;
-  P0(kAtt + 2, kAtt + 2) = sh * sh;
+  (void)sh;  // the start heading's uncertainty is added to the published covariance instead
+  P0(kAtt + 2, kAtt + 2) = kRelativeYawSigmaRad * kRelativeYawSigmaRad;
   t.filter.reset(q, t.start.position_m, P0);
 }
 
@@ -222,11 +254,28 @@ void InsEstimator::navigate(Track& t, const imu_t& m, const Eigen::Vector3d& f,
   if (stance) {
     if (!t.in_stance) {
       t.in_stance = true;
-      t.stance_since = m.utime;
-      t.stance_counted = false;
+      // A break shorter than min_swing_s (the detector flickering at the edge of its threshold,
+      // a heel roll) continues the stance; a step's swing lasts ~0.4 s.
+      const bool blip = t.stance_counted &&
+                        m.utime - t.last_stance_utime <= s_to_utime(params_.min_swing_s);
+      if (blip) {
+        t.swing_peak_rps = 0;
+      } else {
+        t.stance_since = m.utime;
+        t.stance_counted = false;
+      }
     }
+    t.last_stance_utime = m.utime;
     if (m.utime - t.stance_since >= s_to_utime(params_.min_stance_s)) {
       const ZeroVelocityResult r = zero_velocity_update(t.filter, params_.zupt_sigma_mps);
+      // The ZUPT noise is the foot's own velocity in stance (micro-motion, heel roll), which the
+      // IMU sees: innovations far above it say zupt_sigma_mps is too small. At most one NIS per
+      // kZuptNisPeriodS, so that the monitor's window spans seconds, not the last 0.4 s at 820 Hz.
+      if (m.utime - t.last_nis_utime >= s_to_utime(kZuptNisPeriodS)) {
+        t.last_nis_utime = m.utime;
+        consistency_.add_nis("ZUPT", m.device_id, utime_to_s(m.utime), r.nis, 3, false,
+                             "zupt_sigma_mps " + format_setting(params_.zupt_sigma_mps));
+      }
       if (r.accepted) {
         ++stats_.zupts;
         t.tally.add(r.position_correction_m);
@@ -235,20 +284,66 @@ void InsEstimator::navigate(Track& t, const imu_t& m, const Eigen::Vector3d& f,
       }
       if (!t.stance_counted) {
         t.stance_counted = true;
+        // Believed when the swing before it turned the foot as a stride does.
+        t.stance_believed = t.swing_peak_rps >= deg_to_rad(params_.min_swing_rate_dps);
+        if (!t.stance_believed) ++stats_.weak_swings;
+        t.swing_peak_rps = 0;
         ++t.strides;
         const Eigen::Vector3d& p = t.filter.position();
         t.distance_m += horizontal_distance(p, t.last_stance_position);
         t.last_stance_position = p;
       }
+      // A foot that stands still long enough is a foot at rest whatever came before.
+      if (m.utime - t.stance_since >= s_to_utime(params_.alignment_s)) t.stance_believed = true;
+      if (t.stance_believed) t.last_believed_utime = m.utime;
     }
   } else {
     t.in_stance = false;
+    t.swing_peak_rps = std::max(t.swing_peak_rps, w.norm());
   }
   publish(t, m.device_id, m.utime);
 }
 
+bool InsEstimator::gait_believed(const Track& t) const {
+  if (t.refining) return true;
+  if (!t.stance_believed) return false;  // the last stance came after a weak swing
+  if (t.in_stance && t.stance_counted) return true;
+  return t.last_utime - t.last_believed_utime <= s_to_utime(params_.max_swing_s);
+}
+
+std::string InsEstimator::problems() const {
+  std::string out;
+  const utime_t limit = s_to_utime(params_.stance_timeout_s);
+  for (const auto& [id, t] : tracks_) {
+    std::string p;
+    if (t.phase == Phase::kAligning) {
+      if (t.last_utime - t.first_utime > limit)
+        p = id + ": never still for alignment_s " + format_setting(params_.alignment_s) +
+            " in " + format_seconds(utime_to_s(t.last_utime - t.first_utime)) +
+            " s of IMU data (not a foot-mounted IMU, or never at rest?); no POSE_INS";
+    } else if (!t.refining && t.last_utime - t.last_believed_utime > limit) {
+      p = id + ": no foot stance phase for " +
+          format_seconds(utime_to_s(t.last_utime - t.last_believed_utime)) +
+          " s (the IMU moves but never rests like a foot between strides: hand-held or in a "
+          "pocket?); no POSE_INS";
+    }
+    if (p.empty()) continue;
+    if (!out.empty()) out += "; ";
+    out += p;
+  }
+  return out;
+}
+
 void InsEstimator::publish(Track& t, const std::string& tag_id, utime_t utime) {
   if (!t.tally.due(utime, params_.publish_period_s)) return;
+  if (!gait_believed(t)) {
+    // Not a foot's gait: an unaided or wrongly aided INS is confident nonsense. Said in
+    // problems() after stance_timeout_s.
+    pose_t withheld;
+    t.tally.finish(withheld, false, utime);
+    ++stats_.poses_withheld;
+    return;
+  }
   pose_t p;
   p.utime = utime;
   p.source = source_;
@@ -261,6 +356,14 @@ void InsEstimator::publish(Track& t, const std::string& tag_id, utime_t utime) {
     p.velocity[k] = vel(k);
     for (int j = 0; j < 3; ++j) p.position_cov[3 * k + j] = P(kPos + k, kPos + j);
   }
+  // The start heading's uncertainty: a rotation of the whole track about its start.
+  const double sh = deg_to_rad(params_.initial_heading_sigma_deg);
+  const Eigen::Vector3d d = pos - t.start.position_m;
+  const double jx = -d.y() * sh, jy = d.x() * sh;
+  p.position_cov[0] += jx * jx;
+  p.position_cov[1] += jx * jy;
+  p.position_cov[3] += jx * jy;
+  p.position_cov[4] += jy * jy;
   p.heading_rad = t.filter.heading_rad();
   t.tally.finish(p, false, utime);
   ++stats_.poses_out;

@@ -8,7 +8,14 @@
 //      angular rate (002 section 4), position and yaw from the tag's start pose in the site
 //      (tags[].start_position, start_heading_deg: the direction of the toes; no magnetometer).
 //   3. Strapdown mechanisation and a 9-state error-state Kalman filter (strapdown_filter.hpp),
-//      with a zero-velocity update on every stance sample (models/zero_velocity.hpp).
+//      with a zero-velocity update on every stance sample (models/zero_velocity.hpp). The
+//      filter's yaw is relative to the start heading (yaw is unobservable from ZUPTs: a large
+//      initial yaw variance only lets the ZUPTs turn the track spuriously); the start heading's
+//      own uncertainty is added to the published covariance as a rotation about the start.
+//   4. Gait check: a stance is believed when the swing before it turned the foot fast (a foot's
+//      swing peaks at hundreds of deg/s; a hand-held phone's sway does not) or when it lasts
+//      alignment_s. No pose while the last believed stance is more than max_swing_s ago or the
+//      current stance is not believed; problems() says why after stance_timeout_s.
 // Publishes at most one pose per publish_period_s: position with the filter's covariance,
 // velocity, heading of the device's y axis (the toes), 3D. num_used = ZUPTs since the last
 // pose, residual_m = RMS position correction they applied; COASTING when none (the swing).
@@ -20,6 +27,7 @@
 #include <optional>
 #include <string>
 
+#include "core/consistency.hpp"
 #include "core/drop_reasons.hpp"
 #include "core/time_guard.hpp"
 #include "core/pose_tally.hpp"
@@ -33,6 +41,10 @@ struct InsParams {
   double gravity_mps2 = 9.81;
   StanceDetectorParams detector;  // 001/OpenShoe: W = 3, 0.01 m/s^2, 0.1 deg/s, 3e4
   double min_stance_s = 0.02;     // shorter stances are not trusted for a ZUPT
+  double min_swing_s = 0.1;       // a shorter break of a stance is not a swing (a step's is ~0.4 s)
+  double min_swing_rate_dps = 90; // a swing that never turns the foot faster is not a stride
+  double max_swing_s = 2.0;       // no believed stance for longer: no pose (unaided INS)
+  double stance_timeout_s = 5.0;  // ... for longer (or no alignment): said in problems()
   double alignment_s = 1.0;       // still time needed before navigating (001: 50 ms)
   double accel_noise_mps2 = 0.5;  // process noise per sample (OpenShoe sigma_acc)
   double gyro_noise_rps = 0.5 * 3.14159265358979323846 / 180.0;  // OpenShoe 0.5 deg/s
@@ -64,6 +76,8 @@ struct InsStats {
   int64_t stance_samples = 0;
   int64_t zupts = 0;
   int64_t zupts_failed = 0;  // numerically singular (never expected)
+  int64_t weak_swings = 0;   // swings that never reached min_swing_rate_dps (no stride)
+  int64_t poses_withheld = 0;  // due but not published: no believed stance (not a foot?)
   int64_t poses_out = 0;
 
   // The samples that gave no pose, by reason (HEALTH, ips-replay's summary).
@@ -112,6 +126,12 @@ class InsEstimator {
   const TimeGuardStats& time_stats() const { return guard_.stats(); }
   const InsParams& params() const { return params_; }
   std::optional<InsTrackSummary> track(const std::string& tag_id) const;
+  // Tags whose IMU shows no stance phases, in words ("" when none): "foot1: no foot stance
+  // phase for 6.2 s (the IMU moves but never like a foot: hand-held or in a pocket?); no
+  // POSE_INS". For HEALTH (a lasting error) and ips-replay.
+  std::string problems() const;
+  // The ZUPT innovations against zupt_sigma_mps, per tag (core/consistency.hpp).
+  const ConsistencyMonitor& consistency() const { return consistency_; }
 
  private:
   enum class Phase { kAligning, kNavigating };
@@ -135,7 +155,13 @@ class InsEstimator {
     StrapdownFilter filter;
     bool in_stance = false;
     utime_t stance_since = 0;
+    utime_t last_stance_utime = 0;  // the last stance sample
     bool stance_counted = false;
+    double swing_peak_rps = 0;      // since the last stance sample
+    bool stance_believed = false;   // the current (counted) stance
+    utime_t last_believed_utime = 0;  // the last sample of a believed stance
+    utime_t first_utime = 0;
+    utime_t last_nis_utime = 0;  // the last ZUPT given to the consistency monitor
     bool have_stance_position = false;
     Eigen::Vector3d last_stance_position = Eigen::Vector3d::Zero();
     int64_t strides = 0;
@@ -148,6 +174,7 @@ class InsEstimator {
   void navigate(Track& t, const imu_t& m, const Eigen::Vector3d& f, const Eigen::Vector3d& w,
                 double dt, bool stance);
   void publish(Track& t, const std::string& tag_id, utime_t utime);
+  bool gait_believed(const Track& t) const;
 
   PoseSink sink_;
   std::string source_;
@@ -156,6 +183,7 @@ class InsEstimator {
   std::map<std::string, Track> tracks_;
   InsStats stats_;
   TimeGuard guard_;  // per sender (core/time_guard.hpp)
+  ConsistencyMonitor consistency_;
 };
 
 }  // namespace ips::ins

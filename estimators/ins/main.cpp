@@ -3,6 +3,7 @@
 
 #include "core/channels.hpp"
 #include "core/cli.hpp"
+#include "core/consistency.hpp"
 #include "core/drop_reasons.hpp"
 #include "core/node.hpp"
 #include "core/site_source.hpp"
@@ -32,8 +33,19 @@ int main(int argc, char** argv) {
         opts.channel(ips::channel::kImu),
         [&](const ips::imu_t& m, const std::string&) { est.on_imu(m); });
     // Samples that gave no pose, by reason, in HEALTH (drops, last_error) once a second.
+    // A tag whose IMU shows no stance phases (not on a foot) gets no POSE_INS: said as a lasting
+    // error while it lasts. ZUPT innovations against zupt_sigma_mps: HEALTH's consistency.
     ips::DropHealth drop_health;
-    node.add_timer(1.0, [&] { drop_health.report(node, est.drop_reasons()); });
+    ips::ConsistencyHealth consistency_health;
+    node.add_timer(1.0, [&] {
+      drop_health.report(node, est.drop_reasons());
+      const std::string stance = est.problems();
+      if (stance.empty())
+        node.end_lasting_error("ins-stance");
+      else
+        node.report_lasting_error("ins-stance", stance);
+      consistency_health.report(node, est.consistency());
+    });
     return node.run();
   });
 }

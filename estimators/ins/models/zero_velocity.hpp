@@ -11,6 +11,7 @@ namespace ips::ins {
 struct ZeroVelocityResult {
   bool accepted = false;
   double position_correction_m = 0;  // |dp| applied
+  double nis = 0;  // v' (H P H' + R)^-1 v before the update (chi-square, 3 dof when consistent)
 };
 
 inline ZeroVelocityResult zero_velocity_update(StrapdownFilter& f, double sigma_mps) {
@@ -18,9 +19,12 @@ inline ZeroVelocityResult zero_velocity_update(StrapdownFilter& f, double sigma_
   H.middleCols<3>(kVel).setIdentity();
   const Vec<3> innovation = -f.velocity();
   const Mat<3> R = Mat<3>::Identity() * (sigma_mps * sigma_mps);
+  const Mat<3> S = H * f.covariance() * H.transpose() + R;
+  const double nis = innovation.dot(S.ldlt().solve(innovation));
   ErrorState dx = ErrorState::Zero();
   const UpdateResult u = vector_update<kErrorStates, 3>(dx, f.covariance(), H, innovation, R);
   ZeroVelocityResult r;
+  r.nis = nis;
   if (!u.accepted) return r;
   f.apply_correction(dx);
   r.accepted = true;

@@ -11,6 +11,8 @@
 #include <limits>
 #include <optional>
 #include <random>
+#include <string>
+#include <utility>
 #include <vector>
 
 #include "core/geometry.hpp"
@@ -450,6 +452,115 @@ TEST(InsEstimator, MovingBeforeTheAlignmentTimeRestartsIt) {
   EXPECT_TRUE(r.est.track("F1")->navigating);
   EXPECT_EQ(r.est.stats().alignments, 1);
   EXPECT_FALSE(r.poses.empty());
+}
+
+// --- not a foot: no stance phases (issue 22) ------------------------------------------------------
+
+// A phone carried in the hand while walking: the body bounces (2 m/s^2 vertical at the 2 Hz step
+// rate, 0.5 m/s^2 sideways) and sways (up to ~0.4 rad/s, 23 deg/s), never still and never turning
+// like a foot's swing (hundreds of deg/s).
+std::pair<Eigen::Vector3d, Eigen::Vector3d> hand_held(double t, std::mt19937_64& rng) {
+  std::normal_distribution<double> n(0.0, 1.0);
+  const double w = 2 * M_PI;
+  Eigen::Vector3d f(0.5 * std::sin(w * 1.0 * t), 0.3 * std::sin(w * 2.0 * t + 0.7),
+                    kG + 2.0 * std::sin(w * 2.0 * t));
+  Eigen::Vector3d g(0.3 * std::sin(w * 1.0 * t), 0.2 * std::sin(w * 1.0 * t + 1.0),
+                    0.15 * std::sin(w * 0.5 * t));
+  for (int i = 0; i < 3; ++i) {
+    f(i) += 0.05 * n(rng);
+    g(i) += 0.01 * n(rng);
+  }
+  return {f, g};
+}
+
+// The phone lies still on a table for 2 s (it aligns: a still IMU is a foot at rest as far as
+// anyone can tell, and its poses are right), then is carried for 20 s. No POSE_INS once the
+// carrying is max_swing_s (2 s) old, and the problem is said once it is stance_timeout_s (5 s)
+// old; never "ok" with a track stuck at the start.
+TEST(InsEstimator, AHandHeldPhoneGetsNoPoseAndASaidReason) {
+  Harness r;
+  r.est.set_site(site_with("{alignment_s: 1}"));
+  std::mt19937_64 rng(3);
+  const Eigen::Vector3d g(0, 0, kG), z = Eigen::Vector3d::Zero();
+  int64_t k = 0;
+  for (; k < 400; ++k) r.est.on_imu(sample(at(k), g, z));  // 2 s on the table
+  ASSERT_TRUE(r.est.track("F1")->navigating);
+  EXPECT_FALSE(r.poses.empty());
+  EXPECT_EQ(r.est.problems(), "");
+  const utime_t carried = at(k);
+  std::string said_at_7s;
+  for (int i = 0; i < 4000; ++i, ++k) {
+    const auto [f, w] = hand_held(kDt * static_cast<double>(i), rng);
+    r.est.on_imu(sample(at(k), f, w));
+    if (i == 3 * 200) {
+      EXPECT_EQ(r.est.problems(), "") << "said before stance_timeout_s";
+    }
+    if (i == 7 * 200) said_at_7s = r.est.problems();
+  }
+  for (const pose_t& p : r.poses)
+    EXPECT_LE(p.utime, carried + s_to_utime(2.0 + kDt)) << "a pose " << utime_to_s(p.utime - carried)
+                                                       << " s into the carrying";
+  EXPECT_GT(r.est.stats().poses_withheld, 150);
+  EXPECT_NE(said_at_7s.find("F1: no foot stance phase for"), std::string::npos) << said_at_7s;
+  EXPECT_NE(said_at_7s.find("no POSE_INS"), std::string::npos) << said_at_7s;
+  EXPECT_NE(r.est.problems().find("F1: no foot stance phase"), std::string::npos);
+}
+
+// Carried from the start: never still, so never aligned; said after stance_timeout_s.
+TEST(InsEstimator, APhoneNeverAtRestIsSaidNotSilent) {
+  Harness r;
+  r.est.set_site(site_with("{alignment_s: 1}"));
+  std::mt19937_64 rng(4);
+  for (int64_t k = 0; k < 6 * 200; ++k) {
+    const auto [f, w] = hand_held(kDt * static_cast<double>(k), rng);
+    r.est.on_imu(sample(at(k), f, w));
+    if (k == 4 * 200) {
+      EXPECT_EQ(r.est.problems(), "");
+    }
+  }
+  EXPECT_TRUE(r.poses.empty());
+  EXPECT_FALSE(r.est.track("F1")->navigating);
+  EXPECT_NE(r.est.problems().find("F1: never still for alignment_s 1 in 6.0 s of IMU data"),
+            std::string::npos)
+      << r.est.problems();
+}
+
+// The ZUPT noise is the foot's own velocity in stance, which the IMU sees. A foot at rest whose
+// velocity jitters by 0.01 m/s per axis (white, 200 Hz; the detector made blind to it by a large
+// detector_accel_sigma_mps2): with zupt_sigma_mps 0.01 the ZUPT innovations agree (median NIS
+// ~0.9x its chi-square median in a scalar model), with 0.001 (10x too small) they are ~20x, and
+// problems() says so by name within 10 s of data. Nothing learned: a ZUPT is a vector.
+TEST(InsEstimator, AZuptSigmaTenTimesTooSmallShowsInTheConsistencyMonitor) {
+  for (const double sigma : {0.01, 0.001}) {
+    Harness r;
+    r.est.set_site(site_with("{alignment_s: 1, detector_accel_sigma_mps2: 100, zupt_sigma_mps: " +
+                             std::to_string(sigma) + "}"));
+    std::mt19937_64 rng(5);
+    std::normal_distribution<double> n(0.0, 0.01);
+    Eigen::Vector3d v_prev = Eigen::Vector3d::Zero();
+    for (int64_t k = 0; k < 10 * 200; ++k) {
+      const double t = kDt * static_cast<double>(k);
+      Eigen::Vector3d w = Eigen::Vector3d::Zero();
+      Eigen::Vector3d f(0, 0, kG);
+      if (t >= 1.5 && t < 1.7) {
+        w = Eigen::Vector3d(0, 0, 4.0);  // a turn on the spot: navigation starts
+      } else if (t >= 1.2) {
+        const Eigen::Vector3d v(n(rng), n(rng), n(rng));
+        f += (v - v_prev) / kDt;
+        v_prev = v;
+      }
+      r.est.on_imu(sample(at(k), f, w));
+    }
+    EXPECT_GT(r.est.stats().zupts, 1000);
+    const std::string problems = r.est.consistency().problems();
+    if (sigma == 0.01) {
+      EXPECT_EQ(problems, "") << r.est.consistency().summary();
+    } else {
+      EXPECT_NE(problems.find("ZUPT F1"), std::string::npos) << problems;
+      EXPECT_NE(problems.find("zupt_sigma_mps 0.001"), std::string::npos) << problems;
+      EXPECT_TRUE(r.est.consistency().degraded());
+    }
+  }
 }
 
 }  // namespace
