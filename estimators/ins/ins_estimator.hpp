@@ -43,8 +43,8 @@ struct InsParams {
   double min_stance_s = 0.02;     // shorter stances are not trusted for a ZUPT
   double min_swing_s = 0.1;       // a shorter break of a stance is not a swing (a step's is ~0.4 s)
   double min_swing_rate_dps = 90; // a swing that never turns the foot faster is not a stride
-  double max_swing_s = 2.0;       // no believed stance for longer: no pose (unaided INS)
-  double stance_timeout_s = 5.0;  // ... for longer (or no alignment): said in problems()
+  double max_swing_s = 5.0;       // no believed stance for longer: no pose (unaided INS)
+  double stance_timeout_s = 10.0; // ... for longer (or no alignment): said in problems()
   double alignment_s = 1.0;       // still time needed before navigating (001: 50 ms)
   double accel_noise_mps2 = 0.5;  // process noise per sample (OpenShoe sigma_acc)
   double gyro_noise_rps = 0.5 * 3.14159265358979323846 / 180.0;  // OpenShoe 0.5 deg/s
