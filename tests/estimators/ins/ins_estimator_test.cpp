@@ -311,6 +311,11 @@ TEST(InsEstimator, ReproducesANoiseFreeSimulatedStraightWalkToAMillimetre) {
   EXPECT_EQ(w.stats.zupts_failed, 0);
   ASSERT_FALSE(w.poses.empty());
   EXPECT_NEAR(w.poses.back().position[0], 30, 1e-3);
+  // The start heading's 1 deg (initial_heading_sigma_deg) turns the whole track about its start:
+  // 30 m out, 0.52 m across the walk (variance 0.274 m^2 on y), nothing along it (x).
+  const pose_t& last = w.poses.back();
+  EXPECT_NEAR(std::sqrt(last.position_cov[4]), 30 * deg_to_rad(1.0), 0.02);
+  EXPECT_LT(last.position_cov[0], 0.01);
 }
 
 // An L walk, 20 m East then 10 m North, with the pivot of the corner in a stance: the foot's
