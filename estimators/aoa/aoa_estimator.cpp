@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 
 #include "core/geometry.hpp"
@@ -29,6 +30,8 @@ AoaParams parse_aoa_params(const YamlField& s) {
                 "elevation_sigma_deg", "edge_sigma_gain", "epoch_window_s", "duplicate", "motion",
                 "accel_psd", "random_walk_psd", "initial_sigma_m", "initial_velocity_sigma_mps",
                 "gate_sigma", "min_anchors", "max_fix_sigma_m", "reinit_after_rejections", "max_coast_s",
+                "disagree_window_s", "single_anchor_s", "max_outside_m", "max_below_m",
+                "near_anchor_m", "multi_start", "min_anchor_distance_m", "learn_noise",
                 "publish_period_s", "reorder_tolerance_s", "max_tags", "max_iterations",
                 "converged_step_m", "diverged_step_m", "lm_lambda0", "lm_factor", "lm_lambda_max",
                 "steepest_step", "calibration"});
@@ -78,6 +81,14 @@ AoaParams parse_aoa_params(const YamlField& s) {
   bounded("max_fix_sigma_m", p.max_fix_sigma_m, 1e-3, 1e6);
   bounded_int("reinit_after_rejections", p.reinit_after_rejections, 1, 1000000);
   bounded("max_coast_s", p.max_coast_s, 0.01, 1e6);
+  bounded("disagree_window_s", p.disagree_window_s, 0.01, 1e6);
+  bounded("single_anchor_s", p.single_anchor_s, 0, 1e6);
+  bounded("max_outside_m", p.max_outside_m, 0, 1e6);
+  bounded("max_below_m", p.max_below_m, 0, 1e6);
+  bounded("min_anchor_distance_m", p.min_anchor_distance_m, 0, 100);
+  bounded("near_anchor_m", p.solve.near_anchor_m, 0, 100);
+  p.solve.multi_start = s.get_bool("multi_start", p.solve.multi_start);
+  p.learn_noise = s.get_bool("learn_noise", p.learn_noise);
   bounded("publish_period_s", p.publish_period_s, 0, 1e6);
   bounded("reorder_tolerance_s", p.reorder_tolerance_s, 0, 1e6);
   bounded_int("max_tags", p.max_tags, 1, 100000);
@@ -123,6 +134,8 @@ void AoaEstimator::set_site(const Site& site) {
   calibration_.clear();
   double height_sum = 0;
   int n = 0;
+  box_min_.setConstant(std::numeric_limits<double>::infinity());
+  box_max_.setConstant(-std::numeric_limits<double>::infinity());
   for (const auto& a : site.anchors) {
     frames_.push_back(anchor_frame(a));
     const bool usable = a.kind == "ble_aoa" && a.enabled;
@@ -132,9 +145,16 @@ void AoaEstimator::set_site(const Site& site) {
     if (usable) {
       height_sum += a.position.z();
       ++n;
+      box_min_ = box_min_.cwiseMin(a.position);
+      box_max_ = box_max_.cwiseMax(a.position);
     }
   }
   default_height_m_ = n > 0 ? height_sum / n : 0.0;
+  ConsistencyOptions co;
+  co.learn = params_.learn_noise;
+  consistency_ = ConsistencyMonitor(co);
+  azimuth_setting_ = setting_text("azimuth_sigma_deg", params_.azimuth_sigma_deg);
+  elevation_setting_ = setting_text("elevation_sigma_deg", params_.elevation_sigma_deg);
   site_ = site;
   tracks_.clear();
 }
@@ -188,6 +208,16 @@ void AoaEstimator::on_event(const ble_aoa_t& m) {
 }
 
 void AoaEstimator::flush(utime_t now) { grouper_.flush(now); }
+
+bool AoaEstimator::inside_site(const Eigen::Vector3d& p) const {
+  if (!(box_min_.x() <= box_max_.x())) return true;  // no anchors: nothing to bound by
+  // A 2D track's height is the site's tag height: only its horizontal position is checked.
+  // The horizontal distance outside the anchors' box, and the height within its band.
+  const double dx = std::max({box_min_.x() - p.x(), 0.0, p.x() - box_max_.x()});
+  const double dy = std::max({box_min_.y() - p.y(), 0.0, p.y() - box_max_.y()});
+  return std::hypot(dx, dy) <= params_.max_outside_m &&
+         p.z() >= box_min_.z() - params_.max_below_m && p.z() <= box_max_.z() + params_.max_outside_m;
+}
 
 void AoaEstimator::finish() { grouper_.flush_all(); }
 
@@ -349,6 +379,12 @@ std::optional<AoaSolution> AoaEstimator::fix(const Track& t, const std::vector<A
     ++stats_.fixes_poor_geometry;
     return std::nullopt;
   }
+  Eigen::Vector3d p = s.position;
+  if (t.planar) p.z() = std::clamp(p.z(), box_min_.z(), box_max_.z());  // 2D: height given
+  if (!inside_site(p)) {
+    ++stats_.fixes_outside;
+    return std::nullopt;
+  }
   return s;
 }
 
@@ -399,7 +435,8 @@ bool AoaEstimator::initialise(Track& t, utime_t utime, const std::vector<AoaEven
   t.initialised = true;
   t.filter_utime = utime;
   t.last_accept_utime = utime;
-  t.consecutive_rejections = 0;
+  t.verdicts.clear();
+  t.observable_utime = utime;
   stats_.angles_used += static_cast<int64_t>(events.size());
   for (size_t i = 0; i < events.size(); ++i) t.tally.add(s.rms_residual_m);
   ++stats_.initialisations;
@@ -425,38 +462,106 @@ void AoaEstimator::filter_epoch(Track& t, F& f, const std::string& tag_id, utime
   bool any_accepted = false;
   for (const AoaEvent& e : events) {
     const AnchorFrame& frame = frames_[e.anchor];
-    const double distance = (track_position(t, f) - frame.position).norm();
+    const Eigen::Vector3d rel = track_position(t, f) - frame.position;
+    const double distance = rel.norm();
     for (int k = 0; k < (D == 3 ? 2 : 1); ++k) {
       const AngleKind kind = k == 0 ? AngleKind::kAzimuth : AngleKind::kElevation;
       const double z = deg_to_rad(k == 0 ? e.azimuth_deg : e.elevation_deg);
       if (!std::isfinite(z)) continue;
-      const double sigma = sigma_rad(k == 0 ? params_.azimuth_sigma_deg
-                                            : params_.elevation_sigma_deg,
-                                     e.azimuth_deg, e.elevation_deg);
-      const AngleUpdate u =
-          angle_update<D, F::N>(f.x, f.P, frame, t.height_m, kind, z, sigma, params_.gate_sigma);
+      // Next to the anchor its bearing is undefined: the angle fades out (aoa_solvers.hpp).
+      const double sigma = near_anchor_sigma(
+          sigma_rad(k == 0 ? params_.azimuth_sigma_deg : params_.elevation_sigma_deg,
+                    e.azimuth_deg, e.elevation_deg),
+          k == 0 ? rel.head<2>().norm() : distance, params_.solve.near_anchor_m);
+      // The anchor's learned angle variance (a scale on the configured one, core/consistency.hpp).
+      const char* monitor_kind = k == 0 ? "ANGLE" : "ELEVATION";
+      const std::string& anchor_id = site_->anchors[e.anchor].id;
+      const double r_cfg = sigma * sigma;
+      const double r_use = consistency_.variance(monitor_kind, anchor_id, r_cfg);
+      const AngleUpdate u = angle_update<D, F::N>(f.x, f.P, frame, t.height_m, kind, z,
+                                                  std::sqrt(r_use), params_.gate_sigma);
       if (!u.valid) continue;
+      consistency_.add_scalar(monitor_kind, anchor_id, utime_to_s(utime), u.innovation_rad, u.hph,
+                              r_cfg, !u.accepted, k == 0 ? azimuth_setting_ : elevation_setting_);
+      t.verdicts.push_back({utime, e.anchor, u.accepted});
       if (u.accepted) {
         ++stats_.angles_used;
         t.tally.add(u.innovation_rad * distance);
-        t.consecutive_rejections = 0;
         any_accepted = true;
       } else {
         ++stats_.rejected_gate;
-        ++t.consecutive_rejections;
       }
     }
   }
   if (any_accepted) t.last_accept_utime = utime;
-  if (t.consecutive_rejections >= params_.reinit_after_rejections) {
-    // Every recent angle disagrees with the track: it is wrong (a multipath burst pulled it
-    // off, or the tag moved faster than the model allows). Start again from this epoch.
-    if (initialise(t, utime, events)) {
-      publish_filter(t, f, tag_id, utime);
-      return;
+  keep_off_anchors(t, f, events);
+  const utime_t window = s_to_utime(params_.disagree_window_s);
+  while (!t.verdicts.empty() && t.verdicts.front().utime < utime - window) t.verdicts.pop_front();
+  int accepted = 0, rejected = 0;
+  size_t first_anchor = SIZE_MAX;
+  bool two_anchors = false;
+  for (const auto& v : t.verdicts) {
+    if (!v.accepted) {
+      ++rejected;
+      continue;
     }
+    ++accepted;
+    if (first_anchor == SIZE_MAX) first_anchor = v.anchor;
+    else if (v.anchor != first_anchor) two_anchors = true;
+  }
+  if (two_anchors) t.observable_utime = utime;
+  const char* restart = nullptr;
+  if (!inside_site(track_position(t, f))) {
+    restart = "outside";
+    ++stats_.reinit_outside;
+  } else if (rejected >= params_.reinit_after_rejections && rejected > accepted) {
+    // Most recent angles disagree with the track: it is wrong (a multipath burst pulled it off,
+    // or the tag moved faster than the model allows).
+    restart = "disagree";
+    ++stats_.reinit_disagree;
+  } else if (utime - t.observable_utime > s_to_utime(params_.max_coast_s)) {
+    restart = "unobservable";  // one bearing line only, for too long
+    ++stats_.reinit_unobservable;
+  }
+  if (restart) {
+    // Start again from this epoch's fix; without one the track is lost until the next.
+    t.initialised = false;
+    if (initialise(t, utime, events)) publish_filter(t, f, tag_id, utime);
+    return;
   }
   publish_filter(t, f, tag_id, utime);
+}
+
+template <class F>
+void AoaEstimator::keep_off_anchors(Track& t, F& f, const std::vector<AoaEvent>& events) {
+  constexpr int D = F::N == 4 || F::N == 2 ? 2 : 3;
+  const double r = params_.min_anchor_distance_m;
+  if (!(r > 0)) return;
+  for (size_t a = 0; a < frames_.size(); ++a) {
+    if (!usable_[a]) continue;
+    const AnchorFrame& frame = frames_[a];
+    const Eigen::Vector3d p = track_position(t, f);
+    Eigen::Vector3d rel = p - frame.position;
+    if constexpr (D == 2) rel.z() = 0;  // 2D: the anchor's vertical axis
+    if (rel.norm() >= r) continue;
+    // The direction: the anchor's own measured bearing in this epoch, else away from it as the
+    // state already is, else its antenna normal.
+    Eigen::Vector3d dir = rel;
+    for (const AoaEvent& e : events) {
+      if (e.anchor != a) continue;
+      const double az = deg_to_rad(e.azimuth_deg);
+      const double el = D == 3 && std::isfinite(e.elevation_deg) ? deg_to_rad(e.elevation_deg) : 0;
+      dir = frame.site_from_anchor *
+            Eigen::Vector3d(std::cos(el) * std::cos(az), -std::cos(el) * std::sin(az), std::sin(el));
+    }
+    if constexpr (D == 2) dir.z() = 0;
+    if (!(dir.norm() > 1e-9)) dir = frame.site_from_anchor.col(0);
+    if constexpr (D == 2) dir.z() = 0;
+    if (!(dir.norm() > 1e-9)) continue;
+    const Eigen::Vector3d moved = frame.position + r * dir.normalized();
+    f.x.template head<D>() = moved.head<D>();
+    ++stats_.moved_off_anchor;
+  }
 }
 
 template <class F>
@@ -486,6 +591,11 @@ void AoaEstimator::publish_filter(Track& t, const F& f, const std::string& tag_i
 
 void AoaEstimator::emit(Track& t, pose_t& p, utime_t utime) {
   t.tally.finish(p, t.planar, utime);
+  if (params_.method == AoaMethod::kEkf && t.observable_utime != 0 &&
+      utime - t.observable_utime > s_to_utime(params_.single_anchor_s)) {
+    p.status &= ~pose_t::STATUS_OK;  // one anchor's bearing only: a line, not a position
+    ++stats_.poses_not_ok;
+  }
   ++stats_.poses_out;
   sink_(p);
 }

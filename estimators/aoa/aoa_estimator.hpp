@@ -14,6 +14,7 @@
 // 2D (the tag's height from the site: azimuths only, as in the source) or 3D (no height in the
 // site, or force_3d: azimuth and elevation).
 // Pure: takes messages, emits pose_t through a callback, never reads a clock.
+#include <deque>
 #include <functional>
 #include <ips/ble_aoa_t.hpp>
 #include <ips/pose_t.hpp>
@@ -22,6 +23,7 @@
 #include <string>
 #include <vector>
 
+#include "core/consistency.hpp"
 #include "core/cv_filter.hpp"
 #include "core/drop_reasons.hpp"
 #include "core/time_guard.hpp"
@@ -68,7 +70,31 @@ struct AoaParams {
   // A per-epoch fix whose horizontal standard deviation (from its covariance) exceeds this is
   // not used: two nearly parallel lines (opposite anchors, the rest lost) cross anywhere.
   double max_fix_sigma_m = 1.5;
-  int reinit_after_rejections = 10;   // consecutive gated angles: start again from a fix
+  // Start again from a fix when, within disagree_window_s, at least reinit_after_rejections
+  // angles were gated and they outnumber the accepted ones (most anchors disagree for a while;
+  // one anchor that still agrees does not hold a wrong track).
+  int reinit_after_rejections = 10;
+  double disagree_window_s = 2.0;
+  // Accepted angles from fewer than two anchors for this long: the position is not observable
+  // (one bearing is a line): the pose is published without STATUS_OK; for max_coast_s: restart.
+  double single_anchor_s = 1.0;
+  // The site's box: the anchors' bounding box grown by max_outside_m horizontally, and from
+  // max_below_m under the lowest anchor to max_outside_m over the highest (tags are under the
+  // anchors). A fix outside is not used, a track that leaves it starts again, and no pose
+  // outside is published.
+  double max_outside_m = 1.0;
+  double max_below_m = 3.0;
+  // The EKF's angle innovations per anchor are checked against their assumed variance
+  // (core/consistency.hpp, kinds ANGLE and ELEVATION, source the anchor id) and, with
+  // learn_noise, each anchor's angle variance is learned from them (never below the configured
+  // one).
+  bool learn_noise = true;
+  // The EKF's state constraint: a tag is never closer to an anchor than this (its far field: an
+  // XPLR-AOA array of about 15 cm aperture measures plane waves only beyond 2 D^2 / lambda =
+  // 0.36 m; the board itself is on a wall or the ceiling). An update that ends closer is moved
+  // out to this distance along the anchor's own measured bearing (the one angle that still
+  // knows the direction there; the others only say "near this anchor").
+  double min_anchor_distance_m = 0.3;
   double max_coast_s = 3.0;           // no accepted angle for this long: start again
   double publish_period_s = 0.0;      // 0: a pose per epoch
   double reorder_tolerance_s = 0.1;   // epochs this far behind the track are still used
@@ -95,6 +121,12 @@ struct AoaStats {
   int64_t epochs_too_few_anchors = 0;   // per-epoch: no fix (fewer than min_anchors)
   int64_t solve_failures = 0;           // per-epoch solver found no position
   int64_t fixes_poor_geometry = 0;      // a fix beyond max_fix_sigma_m, not used
+  int64_t fixes_outside = 0;            // a fix outside the site's box, not used
+  int64_t reinit_outside = 0;           // EKF restarts: the track left the site's box
+  int64_t reinit_disagree = 0;          // EKF restarts: most angles gated for a while
+  int64_t reinit_unobservable = 0;      // EKF restarts: one anchor's angles only for max_coast_s
+  int64_t poses_not_ok = 0;             // published without STATUS_OK (one anchor only)
+  int64_t moved_off_anchor = 0;         // EKF states moved out to min_anchor_distance_m
   int64_t initialisations = 0;
   int64_t poses_out = 0;
 
@@ -111,7 +143,7 @@ struct AoaStats {
     d.add(DropReason::kDuplicate, duplicates);
     d.add(DropReason::kGated, rejected_gate);
     d.add(DropReason::kTooFewAnchors, epochs_too_few_anchors);
-    d.add(DropReason::kNoFix, solve_failures + fixes_poor_geometry);
+    d.add(DropReason::kNoFix, solve_failures + fixes_poor_geometry + fixes_outside);
     return d;
   }
 };
@@ -157,6 +189,9 @@ class AoaEstimator {
   // The newest event time taken (0 before the first): a live process closes epochs from it.
   utime_t newest_event_utime() const { return guard_.newest(); }
   const AoaParams& params() const { return params_; }
+  // The EKF's angle innovations per anchor against their assumed noise (every angle, gated ones
+  // too); per-epoch solves have no prediction and feed nothing.
+  const ConsistencyMonitor& consistency() const { return consistency_; }
   // Overrides the site's method/solver (ips-aoa --method, comparisons); kept across set_site.
   void override_method(AoaMethod method, std::optional<AoaSolver> solver = std::nullopt);
 
@@ -181,7 +216,13 @@ class AoaEstimator {
     RwFilter<3> rw3;
     utime_t filter_utime = 0;
     utime_t last_accept_utime = 0;
-    int consecutive_rejections = 0;
+    struct Verdict {
+      utime_t utime;
+      size_t anchor;
+      bool accepted;
+    };
+    std::deque<Verdict> verdicts;   // the EKF's angles within disagree_window_s
+    utime_t observable_utime = 0;   // the last time two anchors' angles were accepted
     std::optional<Eigen::Vector3d> last_fix;  // warm start of the per-epoch solver
     utime_t last_fix_utime = 0;
     PoseTally tally;
@@ -207,6 +248,11 @@ class AoaEstimator {
   template <class F>
   void publish_filter(Track& t, const F& f, const std::string& tag_id, utime_t utime);
   void emit(Track& t, pose_t& p, utime_t utime);
+  // The state constraint min_anchor_distance_m on the filter's position.
+  template <class F>
+  void keep_off_anchors(Track& t, F& f, const std::vector<AoaEvent>& events);
+  // Inside the site's box (see max_outside_m).
+  bool inside_site(const Eigen::Vector3d& p) const;
 
   PoseSink sink_;
   EpochSink epoch_sink_;
@@ -220,12 +266,15 @@ class AoaEstimator {
   std::vector<bool> usable_;                       // enabled ble_aoa anchors
   std::vector<AnchorCalibration> calibration_;     // per site anchor
   double default_height_m_ = 0;                    // 2D without a tag height: the anchors' mean
+  Eigen::Vector3d box_min_ = Eigen::Vector3d::Zero(), box_max_ = Eigen::Vector3d::Zero();  // anchors
   std::map<std::string, Track> tracks_;
   EpochGrouper grouper_;
   int64_t order_ = 0;
   std::vector<AoaEvent> picked_;  // scratch
   AoaStats stats_;
   TimeGuard guard_;  // per anchor
+  ConsistencyMonitor consistency_;
+  std::string azimuth_setting_, elevation_setting_;  // as the monitor names them
 };
 
 }  // namespace ips::aoa

@@ -34,19 +34,22 @@ using VecX = Eigen::Matrix<double, Eigen::Dynamic, 1>;
 struct Rows {
   VecX residual;  // wrapped measured - predicted, rad
   MatX jacobian;  // d predicted / d position (D columns)
-  VecX sigma;
+  VecX sigma;     // effective (faded near the anchor)
+  VecX sigma0;    // as measured
   VecX distance;  // anchor to the point, m (residual_m)
   bool valid = true;
 };
 
 template <int D>
-Rows rows_at(const std::vector<const BearingObservation*>& obs, const Vec<D>& x, double height) {
+Rows rows_at(const std::vector<const BearingObservation*>& obs, const Vec<D>& x, double height,
+             double near_anchor_m) {
   const int per = D == 3 ? 2 : 1;
   const int n = static_cast<int>(obs.size()) * per;
   Rows r;
   r.residual.resize(n);
   r.jacobian.resize(n, D);
   r.sigma.resize(n);
+  r.sigma0.resize(n);
   r.distance.resize(n);
   const Eigen::Vector3d p = site_point<D>(x, height);
   int row = 0;
@@ -58,8 +61,12 @@ Rows rows_at(const std::vector<const BearingObservation*>& obs, const Vec<D>& x,
       const double z = k == 0 ? o->azimuth_rad : o->elevation_rad;
       r.residual(row) = wrap_angle(z - pr.angle_rad);
       r.jacobian.row(row) = pr.jacobian.head<D>();
-      r.sigma(row) = k == 0 ? o->azimuth_sigma_rad : o->elevation_sigma_rad;
-      r.distance(row) = (p - o->frame->position).norm();
+      const Eigen::Vector3d rel = p - o->frame->position;
+      r.distance(row) = rel.norm();
+      // An azimuth is singular on the anchor's vertical axis, an elevation at the anchor.
+      const double d = k == 0 ? rel.head<2>().norm() : r.distance(row);
+      r.sigma0(row) = k == 0 ? o->azimuth_sigma_rad : o->elevation_sigma_rad;
+      r.sigma(row) = near_anchor_sigma(r.sigma0(row), d, near_anchor_m);
     }
   }
   return r;
@@ -113,9 +120,14 @@ bool bearing_lines(const std::vector<const BearingObservation*>& obs, const Vec<
   return out.allFinite();
 }
 
+// The negative log-likelihood up to a constant: 1/2 sum (residual / sigma)^2 plus sum log(sigma /
+// sigma0) for the angles faded near their anchor (sigma0: the measured sigma). Without the log
+// term fading would make an anchor's own position cheap (its angle no longer counts there): a
+// false minimum again.
 template <int D>
 double half_cost(const Rows& r) {
-  return 0.5 * (r.residual.array() / r.sigma.array()).square().sum();
+  return 0.5 * (r.residual.array() / r.sigma.array()).square().sum() +
+         (r.sigma.array() / r.sigma0.array()).log().sum();
 }
 
 template <int D>
@@ -146,7 +158,7 @@ AoaSolution solve(const std::vector<const BearingObservation*>& obs, const AoaSo
   s.converged = o.solver == AoaSolver::kBearingLines;
   if (o.solver != AoaSolver::kBearingLines) {
     double lambda = o.lm_lambda0;
-    Rows r = rows_at<D>(obs, x, h);
+    Rows r = rows_at<D>(obs, x, h, o.near_anchor_m);
     double best_cost = half_cost<D>(r);
     Vec<D> best = x;
     for (s.iterations = 1; s.iterations <= o.max_iterations; ++s.iterations) {
@@ -178,7 +190,7 @@ AoaSolution solve(const std::vector<const BearingObservation*>& obs, const AoaSo
         break;
       }
       const Vec<D> candidate = x + step;
-      Rows rc = rows_at<D>(obs, candidate, h);
+      Rows rc = rows_at<D>(obs, candidate, h, o.near_anchor_m);
       const double cost = half_cost<D>(rc);
       if (o.solver == AoaSolver::kLevenbergMarquardt && !(cost < best_cost)) {
         // Algorithm 2: undo the step, trust the linearisation less.
@@ -207,7 +219,7 @@ AoaSolution solve(const std::vector<const BearingObservation*>& obs, const AoaSo
     }
     x = best;
   }
-  const Rows r = rows_at<D>(obs, x, h);
+  const Rows r = rows_at<D>(obs, x, h, o.near_anchor_m);
   const MatX Jw = r.jacobian.array().colwise() / r.sigma.array();
   const Mat<D> info = Jw.transpose() * Jw;
   if (!r.valid || !invertible<D>(info)) {
@@ -217,6 +229,7 @@ AoaSolution solve(const std::vector<const BearingObservation*>& obs, const AoaSo
   s.position = site_point<D>(x, h);
   s.covariance.setZero();
   s.covariance.topLeftCorner<D, D>() = info.inverse();
+  s.cost = half_cost<D>(r);
   s.rms_residual_rad = std::sqrt(r.residual.squaredNorm() / static_cast<double>(r.residual.size()));
   s.rms_residual_m = std::sqrt((r.residual.array() * r.distance.array()).square().sum() /
                                static_cast<double>(r.residual.size()));
@@ -239,7 +252,40 @@ AoaSolution solve_aoa(const std::vector<BearingObservation>& obs, const AoaSolve
     s.failure = "fewer than two anchors' angles";
     return s;
   }
-  return opts.three_d ? solve<3>(used, opts) : solve<2>(used, opts);
+  auto run = [&](const AoaSolveOptions& o) {
+    return opts.three_d ? solve<3>(used, o) : solve<2>(used, o);
+  };
+  AoaSolution best = run(opts);
+  best.starts = 1;
+  if (!opts.multi_start || opts.solver == AoaSolver::kBearingLines) return best;
+  int starts = 1;
+  auto better = [](const AoaSolution& a, const AoaSolution& b) {  // a preferred to b
+    if (a.ok != b.ok) return a.ok;
+    return a.ok && a.cost < b.cost;
+  };
+  auto try_from = [&](const std::optional<Eigen::Vector3d>& start) {
+    AoaSolveOptions o = opts;
+    o.initial = start;
+    AoaSolution s = run(o);
+    ++starts;
+    if (better(s, best)) best = std::move(s);
+  };
+  if (opts.initial) try_from(std::nullopt);  // the bearing lines' crossing
+  auto near_an_anchor = [&](const Eigen::Vector3d& p) {
+    for (const BearingObservation* o : used)
+      if ((p - o->frame->position).head<2>().norm() < std::max(opts.near_anchor_m, 0.05))
+        return true;
+    return false;
+  };
+  if (!best.ok || near_an_anchor(best.position)) {
+    Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+    for (const BearingObservation* o : used) centroid += o->frame->position;
+    centroid /= static_cast<double>(used.size());
+    if (!opts.three_d) centroid.z() = opts.height_m;
+    try_from(centroid);
+  }
+  best.starts = starts;
+  return best;
 }
 
 }  // namespace ips::aoa

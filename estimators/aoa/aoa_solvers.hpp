@@ -18,7 +18,19 @@
 // converged_step_m (source 0.03 m; our default 1 mm: 3 cm stops early, which with the source's
 // warm start acts as smoothing); diverged when a step exceeds 100 m. A failed solve keeps the
 // best point found, flagged.
+// Next to an anchor its bearing is undefined and the weighted residual's Jacobian grows as 1/d:
+// the cost has a false minimum there (every step shrinks with d, so "converged" triggers), and
+// a warm start keeps the solver in it. So each angle's sigma is inflated by (1 + (near_anchor_m
+// / d)^2) (d: the anchor to the point, horizontal for an azimuth; the near field of the array):
+// far away it is the measured sigma, within near_anchor_m the angle fades out and its weighted
+// Jacobian stays bounded (d / (sigma (d^2 + near_anchor_m^2))), the other anchors decide. The
+// cost is the negative log-likelihood with that sigma (the log sigma term makes the anchor's
+// own position expensive instead of free; it moves an exact solution by micrometres). And the iterative solvers start
+// from several points (multi_start): the given start, the bearing lines' crossing and, when the
+// best so far lies within near_anchor_m of an anchor or failed, the anchors' centroid; the
+// lowest cost wins.
 #include <Eigen/Core>
+#include <algorithm>
 #include <optional>
 #include <string>
 #include <vector>
@@ -53,6 +65,8 @@ struct AoaSolveOptions {
   double lm_factor = 5.0;
   double lm_lambda_max = 1e5;
   double steepest_step = 1.0;  // m^2/rad (the source's a)
+  double near_anchor_m = 0.5;  // sigma * (1 + (near_anchor_m / d)^2); 0: off (the source)
+  bool multi_start = true;
 };
 
 struct AoaSolution {
@@ -63,11 +77,20 @@ struct AoaSolution {
   int iterations = 0;
   double rms_residual_rad = 0;  // unweighted, at the solution
   double rms_residual_m = 0;    // each angle residual times the anchor's distance
+  double cost = 0;              // 1/2 sum (residual / effective sigma)^2 at the solution
+  int starts = 0;               // starting points tried
   std::string failure;          // why not ok / not converged
 };
 
 // Needs at least two angles from two anchors whose lines are not parallel (2D) and, in 3D, the
 // elevation too. Observations with a null frame are ignored.
 AoaSolution solve_aoa(const std::vector<BearingObservation>& obs, const AoaSolveOptions& opts);
+
+// The effective sigma of an angle whose anchor is d metres from the point (see above).
+inline double near_anchor_sigma(double sigma, double d, double near_anchor_m) {
+  if (!(near_anchor_m > 0)) return sigma;
+  const double q = near_anchor_m / std::max(d, 1e-6);
+  return sigma * (1.0 + q * q);
+}
 
 }  // namespace ips::aoa

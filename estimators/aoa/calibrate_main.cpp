@@ -133,6 +133,13 @@ void print_report(const aoa::CalibrationResult& r, bool use_truth) {
         std::printf("note: %s %s: degree %d instead of %d: %s\n",
                     ips::printable(a.anchor_id).c_str(), angle, f.degree, f.degree_requested,
                     f.degree_note.c_str());
+      if (f.fitted && !f.slope_note.empty())
+        std::printf("warning: %s %s: %s\n", ips::printable(a.anchor_id).c_str(), angle,
+                    f.slope_note.c_str());
+      if (f.start_left_out_group >= 0)
+        std::printf("note: %s %s: one reference group disagreed with the rest and was left out of "
+                    "the start\n",
+                    ips::printable(a.anchor_id).c_str(), angle);
     };
     note("az", a.azimuth);
     if (a.elevation) note("el", *a.elevation);
@@ -174,7 +181,15 @@ int main(int argc, char** argv) {
                  "write the site with the estimators.aoa.calibration block here (YAML); without "
                  "it, only print the fit")
       ->type_name("SITE.yaml");
-  app.add_flag("--force", force, "overwrite --out when it exists");
+  app.add_flag("--force", force,
+               "overwrite --out when it exists, and keep fits whose slope is outside "
+               "--min-slope..--max-slope");
+  app.add_option("--min-slope", fopt.min_slope,
+                 "smallest plausible overall slope of a fit of degree >= 1 ((P(hi) - P(lo)) / "
+                 "(hi - lo) over the angles used); a fit outside is refused unless --force")
+      ->capture_default_str();
+  app.add_option("--max-slope", fopt.max_slope, "largest plausible slope (see --min-slope)")
+      ->capture_default_str();
   app.add_option("--reject-k", fopt.reject_k,
                  "reject samples beyond K robust sigmas (1.4826 MAD) of the residuals, K > 0")
       ->capture_default_str();
@@ -187,6 +202,12 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   int rc = 0;
   if (!ips::parse_command_line(app, opts, argc, argv, rc)) return rc;
+  fopt.force = force;
+  if (!(fopt.min_slope > 0 && fopt.min_slope <= 1 && fopt.max_slope >= 1 &&
+        std::isfinite(fopt.max_slope))) {
+    ips::print_fatal(kProgram, "--min-slope must be in (0, 1] and --max-slope finite and >= 1");
+    return 2;
+  }
 
   auto usage = [](const std::string& what) {
     ips::print_fatal(kProgram, what);

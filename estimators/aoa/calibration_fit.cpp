@@ -110,11 +110,11 @@ AngleFit fit_angle_correction(const std::vector<AngleSample>& all,
   std::string note;
   // One fit on the kept samples: group centres (medians on the first pass, then means), the
   // degree lowered until the data carries it.
-  auto fit_kept = [&](bool medians) -> bool {
+  auto fit_kept = [&](bool medians, int leave_out = -1) -> bool {
     std::vector<std::vector<double>> measured(static_cast<size_t>(n_groups));
     std::vector<double> true_sum(static_cast<size_t>(n_groups), 0.0);
     for (size_t i = 0; i < s.size(); ++i) {
-      if (!kept[i]) continue;
+      if (!kept[i] || group[i] == leave_out) continue;
       measured[static_cast<size_t>(group[i])].push_back(s[i].measured_deg);
       true_sum[static_cast<size_t>(group[i])] += s[i].true_deg;
     }
@@ -156,6 +156,34 @@ AngleFit fit_angle_correction(const std::vector<AngleSample>& all,
   if (!fit_kept(true)) {
     out.failure = "singular fit";
     return out;
+  }
+  // The robust start: the all-group fit or a leave-one-group-out fit, whichever leaves the
+  // smallest median absolute residual over ALL samples (the agreeing majority).
+  if (n_groups >= out.degree_requested + 2 && out.degree_requested >= 1) {
+    auto median_abs = [&](const std::array<double, 4>& c) {
+      std::vector<double> r(s.size());
+      for (size_t i = 0; i < s.size(); ++i) r[i] = std::abs(poly(c, s[i].measured_deg) - s[i].true_deg);
+      return median_of(r);
+    };
+    const int degree_all = degree;
+    const std::array<double, 4> coef_all = coef;
+    const std::string note_all = note;
+    double best = median_abs(coef);
+    std::array<double, 4> best_coef = coef;
+    int best_degree = degree, best_out = -1;
+    std::string best_note = note;
+    for (int g = 0; g < n_groups; ++g) {
+      degree = out.degree_requested;
+      note.clear();
+      if (!fit_kept(true, g)) continue;
+      const double m = median_abs(coef);
+      if (m < best) best = m, best_coef = coef, best_degree = degree, best_out = g, best_note = note;
+    }
+    coef = best_out >= 0 ? best_coef : coef_all;
+    degree = best_out >= 0 ? best_degree : degree_all;
+    note = best_out >= 0 ? best_note : note_all;
+    out.start_left_out_group = best_out;
+    out.groups = n_groups;
   }
   std::vector<double> resid(s.size());
   std::vector<char> next(s.size());
@@ -238,6 +266,21 @@ AngleFit fit_angle_correction(const std::vector<AngleSample>& all,
   const double med = median_of(final_resid);
   for (auto& e : final_resid) e = std::abs(e - med);
   out.robust_sigma_deg = 1.4826 * median_of(final_resid);
+  // The fit's overall slope over the measured angles used, (P(hi) - P(lo)) / (hi - lo): c1 for a
+  // line; a cubic's local slope near the edges may exceed it (edge compression) and is not judged.
+  const double mean_slope = hi > lo ? (poly(coef, hi) - poly(coef, lo)) / (hi - lo) : coef[1];
+  out.slope_min = out.slope_max = mean_slope;
+  if (out.degree >= 1 && (out.slope_min < opts.min_slope || out.slope_max > opts.max_slope)) {
+    const std::string why = fmt::format(
+        "implausible slope {:.2f} (plausible: {:.2f} to {:.2f}; a wrong reference point or "
+        "orientation?)",
+        mean_slope, opts.min_slope, opts.max_slope);
+    if (!opts.force) {
+      out.failure = why + "; --force keeps it";
+      return out;
+    }
+    out.slope_note = why + ", kept (--force)";
+  }
   out.fitted = true;
   return out;
 }

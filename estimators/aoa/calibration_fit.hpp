@@ -21,6 +21,19 @@
 // min_sigma_deg) from the median residual, refit on the group means of the rest, until the kept
 // set no longer changes.
 //
+// The start of the iteration keeps the agreeing majority: besides the fit through every group's
+// median, the fits leaving out one group each (with at least degree + 2 groups) are tried, and the
+// one with the smallest median absolute residual over all samples starts the rejection; so one
+// reference point spoiled by multipath is rejected, not the groups that agree with each other.
+//
+// Plausibility: a fit's overall slope ((P(hi) - P(lo)) / (hi - lo) over the measured angles used)
+// outside
+// [min_slope, max_slope] is refused (not fitted, the reason given) unless `force`: an array
+// compresses or stretches its angles by some percent to some tens of percent towards the edges
+// (the chamber fit's slope is 0.8 to 1.2), never by a factor of two; a slope like 0.26 or 1.61
+// from four stop points is a wrong point or a wrong orientation, and applying it would make every
+// angle worse.
+//
 // Degree: 0 is a constant offset (Theta = theta + c0: a mounting-yaw error); 1 adds a scale;
 // 2 and 3 bend towards the edges like the chamber fits. Default 1: five points give five
 // reference angles per anchor, enough for a line checked by three redundant ones; the chamber's
@@ -65,6 +78,9 @@ struct CalibrationFitOptions {
   double min_span_deg_per_degree = 10.0;
   int min_samples = 10;          // per anchor and angle, after duplicates and rejection
   double truth_max_gap_s = 0.5;  // TRUTH samples further apart are not interpolated across
+  double min_slope = 0.7;        // plausible slopes of a fit of degree >= 1 (see above)
+  double max_slope = 1.4;
+  bool force = false;            // keep a fit with an implausible slope (flagged in `slope_note`)
 };
 
 // A tag standing at a known site position between start_s and end_s (seconds since the start of
@@ -88,6 +104,9 @@ struct AngleFit {
   int degree_requested = 1;
   int degree = 1;              // the degree fitted
   std::string degree_note;     // why it is lower than requested (empty otherwise)
+  double slope_min = 1, slope_max = 1;  // the overall slope over the measured angles used
+  std::string slope_note;      // a forced fit's implausible slope (empty otherwise)
+  int start_left_out_group = -1;  // the group the robust start left out (-1: none)
   AngleCorrection correction;  // valid interval: the span of the measured angles used
   int64_t samples = 0;         // given to the fit
   int64_t used = 0;

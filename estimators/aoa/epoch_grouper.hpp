@@ -2,11 +2,16 @@
 // Groups AoA events into epochs: the angles the anchors measured on one advertisement of a tag.
 // The anchors report an advertisement at slightly different times (source 000 section 7.2.1:
 // skewed by up to 25 ms; multipath copies come later still), and the tag advertises every
-// 100 ms, so an epoch is every event of a tag within `window` of the epoch's first event. An
+// 100 ms, so an epoch is every event of a tag within `window` of the epoch's first event. The
+// window follows the tag's measured advertising interval (the median interval between an
+// anchor's consecutive events of the tag, over the last 31): at most advertising_fraction of it,
+// so that a tag advertising faster than the configured window (20 Hz: 50 ms) does not have two
+// advertisements merged into one epoch; never more than the configured window. An
 // epoch closes when a later event of any tag shows that its window has passed (the log's own
 // time, so replay is exact), or at flush(now) when the bus goes quiet.
 #include <functional>
 #include <map>
+#include <cstddef>
 #include <string>
 #include <vector>
 
@@ -33,21 +38,38 @@ class EpochGrouper {
  public:
   using Sink = std::function<void(Epoch&)>;
   EpochGrouper(double window_s, Sink sink);
+  static constexpr double kAdvertisingFraction = 0.8;
+  static constexpr size_t kIntervals = 31;  // intervals kept per tag
+  static constexpr size_t kMinIntervals = 8;  // fewer: the configured window
 
   void add(const std::string& tag_id, const AoaEvent& e);
   // Closes every epoch whose window ended before `now`.
   void flush(utime_t now);
   void flush_all();
   size_t open_epochs() const { return open_.size(); }
-  void clear() { open_.clear(); }
+  void clear() {
+    open_.clear();
+    rate_.clear();
+  }
+  // The tag's measured advertising interval (0 until kMinIntervals) and its window now.
+  utime_t advertising_interval_us(const std::string& tag_id) const;
+  utime_t window_us(const std::string& tag_id) const;
 
  private:
   void close(std::map<std::string, Epoch>::iterator it);
   void close_until(utime_t now, bool all);
 
+  struct Rate {
+    std::map<size_t, utime_t> last;  // per anchor
+    std::vector<utime_t> intervals;  // ring of the newest kIntervals
+    size_t next = 0;
+    utime_t median = 0;
+    utime_t window = 0;
+  };
   utime_t window_us_;
   Sink sink_;
   std::map<std::string, Epoch> open_;
+  std::map<std::string, Rate> rate_;
 };
 
 }  // namespace ips::aoa

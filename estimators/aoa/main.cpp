@@ -58,7 +58,12 @@ int main(int argc, char** argv) {
     // Events that gave no pose, by reason, in HEALTH once a second; gated angles and multipath
     // duplicates are counted in drops without marking the process degraded.
     ips::DropHealth drop_health;
-    node.add_timer(1.0, [&] { drop_health.report(node, est.drop_reasons()); });
+    // The angle innovations against their assumed noise, per anchor (core/consistency.hpp).
+    ips::ConsistencyHealth consistency_health;
+    node.add_timer(1.0, [&] {
+      drop_health.report(node, est.drop_reasons());
+      consistency_health.report(node, est.consistency());
+    });
     node.add_timer(0.02, [&] {
       if (last_event_utime != 0)
         est.flush(last_event_utime + (ips::wall_utime_now() - last_event_host));

@@ -80,6 +80,7 @@ struct AngleUpdate {
   bool valid = false;
   double innovation_rad = 0;  // wrapped z - h(x) before the update
   double normalised = 0;      // innovation / sqrt(H P H' + r)
+  double hph = 0;             // the prediction's variance H P H' (rad^2)
 };
 
 // EKF update of a filter whose state starts with the D position coordinates (a constant-velocity
@@ -98,7 +99,8 @@ AngleUpdate angle_update(Vec<N>& x, Mat<N>& P, const AnchorFrame& f, double heig
   H.template head<D>() = pred.jacobian.template head<D>();
   out.innovation_rad = wrap_angle(measured_rad - pred.angle_rad);
   const double r = sigma_rad * sigma_rad;
-  const double S = (H * P * H.transpose())(0, 0) + r;
+  out.hph = (H * P * H.transpose())(0, 0);
+  const double S = out.hph + r;
   if (!(S > 0)) return out;
   out.normalised = out.innovation_rad / std::sqrt(S);
   out.accepted =

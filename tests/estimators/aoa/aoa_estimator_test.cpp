@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <random>
 #include <ips/ble_aoa_t.hpp>
 #include <ips/pose_t.hpp>
 #include <vector>
@@ -105,17 +106,17 @@ TEST(AoaEstimator, EkfFollowsExactAnglesToTheExactPosition) {
   AoaEstimator est(out.sink());
   const Site site = hall_site("{converged_step_m: 1e-9}");
   est.set_site(site);
-  // Walk along y at 1 m/s, 10 advertisements a second, for 10 s.
+  // Walk along y at 0.6 m/s (inside the hall), 10 advertisements a second, for 10 s.
   for (int i = 0; i < 100; ++i) {
-    const Eigen::Vector3d p(2.0, 2.0 + 0.1 * i, 1.528);
+    const Eigen::Vector3d p(2.0, 1.0 + 0.06 * i, 1.528);
     advertise(est, site, "T1", p, kT0 + i * 100000);
   }
   est.finish();
   ASSERT_EQ(out.poses.size(), 100u);
   const pose_t& last = out.poses.back();
   EXPECT_NEAR(last.position[0], 2.0, 1e-3);
-  EXPECT_NEAR(last.position[1], 2.0 + 9.9, 1e-3);
-  EXPECT_NEAR(last.velocity[1], 1.0, 0.02);
+  EXPECT_NEAR(last.position[1], 1.0 + 0.06 * 99, 1e-3);
+  EXPECT_NEAR(last.velocity[1], 0.6, 0.02);
   EXPECT_NEAR(last.heading_rad, M_PI / 2, 0.02);
   EXPECT_EQ(est.stats().initialisations, 1);
   EXPECT_EQ(est.stats().rejected_gate, 0);
@@ -340,6 +341,54 @@ TEST(EpochGrouper, AnEpochIsEveryEventWithinTheWindowOfItsFirst) {
   ASSERT_EQ(epochs.size(), 2u);
   EXPECT_EQ(epochs[1].events.size(), 1u);
   EXPECT_EQ(g.open_epochs(), 0u);
+}
+
+}  // namespace
+}  // namespace ips::aoa
+
+namespace ips::aoa {
+namespace {
+
+// Issue 22: one anchor's angles 10x noisier than configured (1 deg configured, 10 deg measured;
+// the others at the configured 1 deg): within 10 s of data the consistency monitor names that
+// anchor and the setting, the others stay quiet; with learning off the estimator is degraded.
+TEST(AoaEstimator, AnAnchorTenTimesNoisierThanConfiguredIsNamedWithin10s) {
+  for (const bool learn : {true, false}) {
+    Collected out;
+    AoaEstimator est(out.sink());
+    const Site site = hall_site(std::string("{azimuth_sigma_deg: 1, edge_sigma_gain: 0, ") +
+                                "learn_noise: " + (learn ? "true" : "false") + "}");
+    est.set_site(site);
+    std::mt19937 rng(7);
+    std::normal_distribution<double> unit(0.0, 1.0);
+    std::string named;
+    double named_after_s = -1;
+    for (int i = 0; i < 100; ++i) {  // 10 s at 10 Hz, standing still
+      const Eigen::Vector3d p(2.186, 3.369, 1.528);
+      const utime_t t = kT0 + i * 100000;
+      int k = 0;
+      for (const char* a : {"A1", "A2", "A3", "A4"})
+        est.on_event(event(site, a, "T1", p, t + 5000 * k++,
+                           (std::string(a) == "A3" ? 10.0 : 1.0) * unit(rng)));
+      est.flush(t + 90000);
+      if (named_after_s < 0 && est.consistency().problems().find("A3") != std::string::npos) {
+        named = est.consistency().problems();
+        named_after_s = 0.1 * i;
+      }
+    }
+    est.finish();
+    ASSERT_GE(named_after_s, 0) << "learn " << learn << ": " << est.consistency().summary();
+    EXPECT_LE(named_after_s, 10.0);
+    EXPECT_NE(named.find("ANGLE A3"), std::string::npos) << named;
+    EXPECT_NE(named.find("azimuth_sigma_deg"), std::string::npos) << named;
+    for (const char* quiet : {"ANGLE A1", "ANGLE A2", "ANGLE A4"})
+      EXPECT_EQ(est.consistency().problems().find(quiet), std::string::npos)
+          << est.consistency().problems();
+    if (!learn) {
+      EXPECT_TRUE(est.consistency().degraded()) << est.consistency().problems();
+    }
+    EXPECT_FALSE(out.poses.empty());
+  }
 }
 
 }  // namespace

@@ -177,7 +177,8 @@ TEST(AoaSolvers, TheSourceStartAndWarmStartConvergeToo) {
     o.converged_step_m = 1e-9;
     const AoaSolution s = solve_aoa(exact(frames, pt.p), o);
     ASSERT_TRUE(s.ok) << pt.name;
-    EXPECT_NEAR((s.position - pt.p).norm(), 0.0, 1e-8) << pt.name;
+    // The near-anchor term of the cost (its log sigma) moves the minimum by micrometres.
+    EXPECT_NEAR((s.position - pt.p).norm(), 0.0, 1e-4) << pt.name;
   }
 }
 

@@ -167,6 +167,54 @@ TEST(AngleCorrectionFit, FallsBackToALowerDegreeWithTheReason) {
   EXPECT_DOUBLE_EQ(f.correction.valid_max_deg, 7.5);
 }
 
+// Issue 22: slopes like 0.26 or 1.61 from a few stop points are refused unless forced.
+TEST(AngleCorrectionFit, ImplausibleSlopesAreRefusedUnlessForced) {
+  CalibrationFitOptions o;
+  for (const double slope : {0.26, 1.61}) {
+    const auto samples = sample_polynomial({1.0, slope, 0, 0}, -40, 40, 0.5);
+    const AngleFit refused = fit_angle_correction(samples, o);
+    EXPECT_FALSE(refused.fitted) << slope;
+    EXPECT_NE(refused.failure.find("implausible slope"), std::string::npos) << refused.failure;
+    EXPECT_NE(refused.failure.find("--force"), std::string::npos) << refused.failure;
+    CalibrationFitOptions forced = o;
+    forced.force = true;
+    const AngleFit kept = fit_angle_correction(samples, forced);
+    ASSERT_TRUE(kept.fitted) << kept.failure;
+    EXPECT_NEAR(kept.correction.coefficients[1], slope, 1e-9);
+    EXPECT_NE(kept.slope_note.find("kept (--force)"), std::string::npos) << kept.slope_note;
+  }
+  // A plausible scale passes without a note.
+  const AngleFit ok = fit_angle_correction(sample_polynomial({-2, 1.15, 0, 0}, -40, 40, 0.5), o);
+  ASSERT_TRUE(ok.fitted) << ok.failure;
+  EXPECT_EQ(ok.slope_note, "");
+}
+
+// Issue 22: four stop points, one of them spoiled (every sample 15 deg off, as a multipath
+// reflection does): the start keeps the three that agree, the spoiled group is rejected, and the
+// fit is the true offset.
+TEST(AngleCorrectionFit, TheOutlierStepKeepsTheAgreeingMajority) {
+  std::vector<AngleSample> s;
+  std::mt19937 rng(3);
+  std::normal_distribution<double> noise(0.0, 2.0);
+  const std::array<double, 4> truth{-3.0, 1.0, 0, 0};
+  for (const double theta_true : {-30.0, -10.0, 12.0, 35.0}) {
+    for (int i = 0; i < 60; ++i) {
+      // measured = (Theta - c0) / c1, plus noise; the point at -10 deg spoiled by +15 deg
+      double measured = theta_true - truth[0] + noise(rng);
+      if (theta_true == -10.0) measured += 15.0;
+      s.push_back({std::round(measured), theta_true});
+    }
+  }
+  CalibrationFitOptions o;
+  const AngleFit f = fit_angle_correction(s, o);
+  ASSERT_TRUE(f.fitted) << f.failure;
+  EXPECT_EQ(f.start_left_out_group, 1);  // the group at -10 deg (second in order)
+  EXPECT_GE(f.rejected, 55);             // the spoiled group, nearly all of it
+  EXPECT_LE(f.rejected, 75);
+  EXPECT_NEAR(f.correction.coefficients[1], 1.0, 0.05);
+  EXPECT_NEAR(f.correction.coefficients[0], -3.0, 1.0);
+}
+
 TEST(AngleCorrectionFit, TooFewSamplesOrNonFiniteAreNotFitted) {
   CalibrationFitOptions o;
   std::vector<AngleSample> s = sample_polynomial({0, 1, 0, 0}, 0, 8, 1);  // 9 samples
