@@ -60,6 +60,7 @@ struct ConsistencyOptions {
   // as a reason to trust it more.
   double learn_min = 1.0;
   double learn_max = 400.0;
+  double learn_deadband = 2.0;  // a learned variance below this x the configured one is not used
 };
 
 class ConsistencyMonitor {
@@ -79,6 +80,9 @@ class ConsistencyMonitor {
   explicit ConsistencyMonitor(ConsistencyOptions o = {}) : opts_(o) {}
   const ConsistencyOptions& options() const { return opts_; }
   void set_learning(bool on) { opts_.learn = on; }
+  // Channels of `kind` are checked, never learned (their variance is not the estimator's to
+  // scale: e.g. a TDoA difference's comes from the clock filters).
+  void monitor_only(std::string_view kind) { monitor_only_.emplace_back(kind); }
 
   // A scalar measurement: innovation r (measured - predicted), the prediction's variance hph
   // (H P H') and the CONFIGURED measurement variance r_cfg. `setting` names what the user set,
@@ -104,7 +108,7 @@ class ConsistencyMonitor {
   double variance(std::string_view kind, std::string_view source, double r_cfg) const {
     if (!opts_.learn || !(r_cfg > 0.0)) return r_cfg;
     const Channel* c = find(kind, source);
-    if (c == nullptr || !std::isfinite(c->learned_scale)) return r_cfg;
+    if (c == nullptr || !c->learns || !std::isfinite(c->learned_scale)) return r_cfg;
     return r_cfg * c->learned_scale;
   }
 
@@ -144,7 +148,7 @@ class ConsistencyMonitor {
       if (!s.empty()) s += ", ";
       s += v.kind + " " + v.source + " " + fmt(v.ratio, v.ratio < 10 ? 1 : 0) + "x";
       if (v.gated_share >= 0.005) s += " " + fmt(100.0 * v.gated_share, 0) + "% gated";
-      if (v.scalar && opts_.learn && std::isfinite(v.learned_sigma) && v.state == State::kNoisy)
+      if (std::isfinite(v.learned_sigma) && v.state == State::kNoisy)
         s += " (learned sigma " + fmt(v.learned_sigma, -3) + ")";
     }
     return s;
@@ -186,6 +190,7 @@ class ConsistencyMonitor {
     std::string kind, source, setting;
     int dof = 1;
     bool scalar = false;
+    bool learns = false;  // a scalar channel, learning on, not monitor_only
     double r_cfg = NAN;
     double learned_scale = NAN;  // learned variance / r_cfg, NaN until learned
     bool at_bound = false;
@@ -218,6 +223,8 @@ class ConsistencyMonitor {
     if (!setting.empty() && c.setting != setting) c.setting = setting;
     c.dof = dof;
     c.scalar = scalar;
+    c.learns = scalar && opts_.learn &&
+               std::find(monitor_only_.begin(), monitor_only_.end(), kind) == monitor_only_.end();
     return c;
   }
   void push(Channel& c, double t, const Sample& s) {
@@ -258,7 +265,11 @@ class ConsistencyMonitor {
     const double var = median(r2) / chi2_median(1) - median(hph);
     const double scale = var / c.r_cfg;
     c.at_bound = !(scale < opts_.learn_max);
-    c.learned_scale = std::clamp(std::isfinite(scale) ? scale : 1.0, opts_.learn_min, opts_.learn_max);
+    // Below learn_deadband the configured value stands: an estimate from a few dozen samples
+    // scatters by tens of percent, and a consistent channel must not jitter.
+    c.learned_scale = !std::isfinite(scale) || scale < opts_.learn_deadband
+                          ? 1.0
+                          : std::clamp(scale, opts_.learn_min, opts_.learn_max);
   }
   Verdict verdict(const Channel& c) const {
     Verdict v;
@@ -281,7 +292,7 @@ class ConsistencyMonitor {
     v.state = v.ratio > opts_.too_noisy  ? State::kNoisy
               : v.ratio < opts_.too_quiet ? State::kQuiet
                                           : State::kOk;
-    if (c.scalar && opts_.learn && std::isfinite(c.learned_scale)) {
+    if (c.learns && std::isfinite(c.learned_scale)) {
       v.learned_sigma = std::sqrt(c.learned_scale * c.r_cfg);
       v.compensated = !c.at_bound;
     }
@@ -320,6 +331,7 @@ class ConsistencyMonitor {
   }
 
   ConsistencyOptions opts_;
+  std::vector<std::string> monitor_only_;
   std::map<std::string, Channel> channels_;
 };
 

@@ -50,7 +50,8 @@ FuseParams parse_fuse_params(const YamlField& s) {
                 "displacement_sigma_min_m", "heading_bias_sigma_deg",
                 "heading_bias_walk_deg_per_sqrt_s", "start_sigma_m", "height_gate_sigma",
                 "pose_gate_sigma", "pose_cov_scale", "epoch_window_s", "max_delay_s", "max_gap_s", "reinit_after_rejections",
-                "publish_period_s", "max_tags"});
+                "publish_period_s", "max_tags", "learn_noise"});
+  p.learn_noise = s.get_bool("learn_noise", p.learn_noise);
   p.force_3d = s.get_bool("force_3d", p.force_3d);
   p.range_sigma_m = s.get_double_in("range_sigma_m", p.range_sigma_m, 1e-4, 100);
   p.gate_sigma = s.get_double_in("gate_sigma", p.gate_sigma, 0.5, 1e6);
@@ -114,6 +115,15 @@ void FuseEstimator::set_site(const Site& site) {
   frames_.clear();
   for (const Anchor& a : site.anchors) frames_.push_back(aoa::anchor_frame(a));
   params_ = params;
+  ConsistencyOptions co;
+  co.learn = params_.learn_noise;
+  consistency_ = ConsistencyMonitor(co);
+  // Ranges learn their anchor's noise; angles, heights and poses come with their own sigma,
+  // which is their source's to get right: checked, not scaled.
+  consistency_.monitor_only("ANGLE");
+  consistency_.monitor_only("HEIGHT");
+  consistency_.monitor_only("POSE");
+  range_setting_ = setting_text("range_sigma_m", params_.range_sigma_m);
   site_ = site;
   tracks_.clear();
 }
@@ -315,7 +325,9 @@ void FuseEstimator::apply(Track& t, Snapshot& s, const Measurement& m, bool live
   switch (m.kind) {
     case Measurement::Kind::kRange: {
       uwb_twr::RangeNoise noise;
-      noise.r_var = params_.range_sigma_m * params_.range_sigma_m;
+      const double r_cfg = params_.range_sigma_m * params_.range_sigma_m;
+      const std::string& anchor_id = site_->anchors[static_cast<size_t>(m.anchor)].id;
+      noise.r_var = consistency_.variance("RANGE", anchor_id, r_cfg);
       noise.gate_chi2 = params_.gate_sigma * params_.gate_sigma;
       noise.gate_chi2_positive = params_.nlos_gate_sigma * params_.nlos_gate_sigma;
       noise.downweight_sigma = params_.nlos_downweight_sigma;
@@ -327,6 +339,8 @@ void FuseEstimator::apply(Track& t, Snapshot& s, const Measurement& m, bool live
                                                                 noise);
       count_absolute(s, m.t, u.accepted, live);
       if (live) {
+        consistency_.add_scalar("RANGE", anchor_id, utime_to_s(m.t), u.innovation_m, u.hph, r_cfg,
+                                !u.accepted, range_setting_);
         (u.accepted ? stats_.ranges_used : stats_.ranges_rejected)++;
         if (u.accepted) {
           t.tally.add(u.innovation_m);
@@ -369,6 +383,9 @@ void FuseEstimator::apply(Track& t, Snapshot& s, const Measurement& m, bool live
           if (!u.valid) continue;
           any = any || u.accepted;
           if (live) {
+            consistency_.add_nis("ANGLE", site_->anchors[static_cast<size_t>(a.anchor[i])].id,
+                                 utime_to_s(m.t), u.normalised * u.normalised, 1, !u.accepted,
+                                 "the anchor's angle sigma");
             (u.accepted ? stats_.angles_used : stats_.angles_rejected)++;
             if (u.accepted) {
               t.tally.add(u.innovation_rad * distance);
@@ -388,6 +405,8 @@ void FuseEstimator::apply(Track& t, Snapshot& s, const Measurement& m, bool live
                                            params_.height_gate_sigma * params_.height_gate_sigma);
       if (u.accepted) s.last_absolute = m.t;
       if (live) {
+        consistency_.add_nis("HEIGHT", "ALTITUDE", utime_to_s(m.t), u.mahalanobis_sq, 1, !u.accepted,
+                             "ips-altitude's height sigma");
         (u.accepted ? stats_.heights_used : stats_.heights_rejected)++;
         if (u.accepted) t.sources |= kSrcAltitude;
       }
@@ -398,6 +417,9 @@ void FuseEstimator::apply(Track& t, Snapshot& s, const Measurement& m, bool live
                                              params_.pose_gate_sigma * params_.pose_gate_sigma);
       if (u.accepted) s.last_absolute = m.t;
       if (live) {
+        consistency_.add_nis("POSE", m.pose_kind, utime_to_s(m.t), u.mahalanobis_sq,
+                             m.horizontal_only || f.planar ? 2 : 3, !u.accepted,
+                             setting_text("pose_cov_scale", params_.pose_cov_scale));
         (u.accepted ? stats_.poses_used : stats_.poses_rejected)++;
         if (u.accepted) {
           t.sources |= kSrcPose;

@@ -43,6 +43,7 @@
 #include "core/drop_reasons.hpp"
 #include "core/pose_tally.hpp"
 #include "core/site.hpp"
+#include "core/consistency.hpp"
 #include "core/time_guard.hpp"
 #include "estimators/aoa/aoa_estimator.hpp"
 #include "estimators/uwb_tdoa/tdoa_estimator.hpp"
@@ -56,6 +57,9 @@ enum class DisplacementSource { kAuto, kInsModule, kPoseIns, kStep, kNone };
 
 struct FuseParams {
   bool force_3d = false;          // estimate height even when the site gives the tag's
+  // Learn each anchor's range noise from its innovations (core/consistency.hpp), never below
+  // range_sigma_m.
+  bool learn_noise = true;
   double range_sigma_m = 0.10;
   double gate_sigma = 4.0;
   double tdoa_gate_sigma = 4.0;
@@ -162,6 +166,9 @@ class FuseEstimator {
   // and initialising count measurements of a tag, not messages).
   DropReasons drop_reasons() const;
   const FuseParams& params() const { return params_; }
+  // Its inputs' innovations against their assumed noise: ranges per anchor, angles per anchor,
+  // heights, and other estimators' poses per kind (core/consistency.hpp).
+  const ConsistencyMonitor& consistency() const { return consistency_; }
   // The tag's current state, for tests.
   std::optional<FuseFilter> filter(const std::string& tag_id) const;
 
@@ -273,6 +280,8 @@ class FuseEstimator {
   std::vector<aoa::AnchorFrame> frames_;  // per site anchor
   std::map<std::string, Track> tracks_;
   TimeGuard guard_;  // per tag
+  ConsistencyMonitor consistency_;
+  std::string range_setting_;  // "range_sigma_m 0.1"
   int64_t tdoa_reanchors_back_ = 0, aoa_reanchors_back_ = 0;  // the hosted guards', seen
   FuseStats stats_;
   std::string last_gap_;

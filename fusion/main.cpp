@@ -39,9 +39,11 @@ int main(int argc, char** argv) {
     ips::provide_site(node, [&](const ips::Site& site) { est.set_site(site); });
     // Inputs that were not fused, by reason, in HEALTH (drops, last_error) once a second.
     ips::DropHealth drop_health;
+    ips::ConsistencyHealth consistency_health;
     int64_t gap_restarts = 0;
     node.add_timer(1.0, [&] {
       drop_health.report(node, est.drop_reasons());
+      consistency_health.report(node, est.consistency());
       // A track restarted after a gap (the process stopped, the machine swapped, the tag out of
       // reach): said in HEALTH, the pose flagged REINITIALISED.
       if (est.stats().gap_restarts > gap_restarts) {

@@ -16,6 +16,7 @@ ClockSync::ClockSync(ClockSink sink, std::string source)
 
 void ClockSync::configure(const ClockSyncParams& params, const Site& site) {
   params_ = params;
+  sync_setting_ = setting_text("sync_sigma_ns", params.sync_sigma_ns);
   anchors_.clear();
   for (const auto& a : site.anchors) {
     if (a.kind != "uwb_tdoa" || !a.enabled) continue;
@@ -248,9 +249,14 @@ void ClockSync::apply(int anchor, const MasterRecord& rec, int64_t rx_counter) {
       (static_cast<double>(counter_diff(rx_counter, master_plus_base)) - a.tof_s * hz_) / hz_ * 1e9;
   Mat<1, 2> H;
   H << 1.0, 0.0;
-  const double r = params_.sync_sigma_ns * params_.sync_sigma_ns;
+  const double r_cfg = params_.sync_sigma_ns * params_.sync_sigma_ns;
+  const double r = monitor_ ? monitor_->variance("SYNC", a.id, r_cfg) : r_cfg;
+  const double innovation = z_ns - a.x(0), hph = a.P(0, 0);
   const UpdateResult res =
-      scalar_update<2>(a.x, a.P, H, z_ns - a.x(0), r, params_.gate_sigma * params_.gate_sigma);
+      scalar_update<2>(a.x, a.P, H, innovation, r, params_.gate_sigma * params_.gate_sigma);
+  if (monitor_)
+    monitor_->add_scalar("SYNC", a.id, utime_to_s(rec.utime), innovation, hph, r_cfg, !res.accepted,
+                         sync_setting_);
   if (!res.accepted) {
     ++stats_.rejected_gate;
     if (++a.consecutive_rejections >= params_.reacquire_after_rejections) {

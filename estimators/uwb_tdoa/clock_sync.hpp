@@ -25,6 +25,7 @@
 #include <string>
 #include <vector>
 
+#include "core/consistency.hpp"
 #include "core/ekf.hpp"
 #include "core/site.hpp"
 
@@ -113,6 +114,10 @@ class ClockSync {
   std::optional<MasterTime> to_master(int i, int64_t counter, utime_t utime) const;
   std::optional<ClockEstimate> estimate(const std::string& anchor_id) const;
   const ClockSyncStats& stats() const { return stats_; }
+  // Checks each anchor's sync innovations in `m` (kind SYNC; with the monitor's learning on, the
+  // sync noise is learned per anchor, never below sync_sigma_ns). The monitor must outlive this
+  // object; nullptr: none.
+  void set_consistency(ConsistencyMonitor* m) { monitor_ = m; }
 
  private:
   struct MasterRecord {
@@ -167,6 +172,8 @@ class ClockSync {
   std::deque<PendingRx> pending_;            // receptions waiting for their master record
   utime_t newest_master_utime_ = 0;
   ClockSyncStats stats_;
+  ConsistencyMonitor* monitor_ = nullptr;
+  std::string sync_setting_;  // "sync_sigma_ns 0.17"
 };
 
 }  // namespace ips::uwb_tdoa

@@ -132,7 +132,11 @@ int main(int argc, char** argv) {
     // Reports that gave no pose or clock, by reason, in HEALTH once a second; outliers gated and
     // blinks before the clocks are synchronised are counted without marking the process degraded.
     ips::DropHealth drop_health;
-    node.add_timer(1.0, [&] { drop_health.report(node, est.drop_reasons()); });
+    ips::ConsistencyHealth consistency_health;
+    node.add_timer(1.0, [&] {
+      drop_health.report(node, est.drop_reasons());
+      consistency_health.report(node, est.consistency());
+    });
     return node.run();
   });
 }

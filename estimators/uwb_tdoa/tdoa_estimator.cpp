@@ -34,6 +34,7 @@ TdoaParams parse_tdoa_params(const YamlField& s, const Site& site) {
                 "update",
                 "rx_sigma_ns",
                 "sync_sigma_ns",
+                "learn_noise",
                 "rate_random_walk_ppb_per_sqrt_s",
                 "initial_rate_sigma_ppb",
                 "sync_gate_sigma",
@@ -96,6 +97,7 @@ TdoaParams parse_tdoa_params(const YamlField& s, const Site& site) {
 
   in_range("rx_sigma_ns", p.rx_sigma_ns, 0, 1e6);
   in_range("sync_sigma_ns", p.clock.sync_sigma_ns, 0, 1e6);
+  p.learn_noise = s.get_bool("learn_noise", p.learn_noise);
   in_range("rate_random_walk_ppb_per_sqrt_s", p.clock.rate_random_walk_ppb_per_sqrt_s, 0, 1e6);
   in_range("initial_rate_sigma_ppb", p.clock.initial_rate_sigma_ppb, 0, 1e6);
   in_range("sync_gate_sigma", p.clock.gate_sigma, 0, 1e6);
@@ -131,6 +133,14 @@ void TdoaEstimator::set_epoch_sink(EpochSink sink, bool track) {
 void TdoaEstimator::set_site(const Site& site) {
   TdoaParams p = parse_tdoa_params(site.estimator_params("uwb_tdoa"), site);
   params_ = std::move(p);
+  // Syncs learn each anchor's noise; differences are checked, not learned: their variance comes
+  // from the clock filters.
+  ConsistencyOptions co;
+  co.learn = params_.learn_noise;
+  consistency_ = ConsistencyMonitor(co);
+  consistency_.monitor_only("TDOA");
+  clocks_.set_consistency(&consistency_);
+  rx_setting_ = setting_text("rx_sigma_ns", params_.rx_sigma_ns);
   site_ = site;
   clocks_.configure(params_.clock, *site_);
   reference_anchor_ = params_.reference == ReferenceChoice::kAnchor
@@ -450,6 +460,14 @@ void TdoaEstimator::update(Track& t, CvFilter<D>& f, const Blink& b, std::vector
     std::array<double, kMaxTdoaPerEpoch> y, z, var;
     std::array<int, kMaxTdoaPerEpoch> idx;
     int accepted = 0, rejected = 0, geometry = 0;
+    // Every difference's innovation, for the consistency monitor.
+    struct Seen {
+      int k;
+      double y, hph, var;
+      bool gated;
+    };
+    std::array<Seen, kMaxArrivals> seen;
+    int n_seen = 0;
   };
   // Gates every difference to reference arr[r] on its own innovation.
   auto gate_with = [&](size_t r, Gated& g) {
@@ -465,8 +483,11 @@ void TdoaEstimator::update(Track& t, CvFilter<D>& f, const Blink& b, std::vector
       }
       const TdoaRow<D> row = tdoa_row<D>(f.x, t.height_m, ak, ar);
       const double y = z - row.predicted;
-      const double S = (row.H * f.P * row.H.transpose())(0, 0) + var + arr[r].var_m2;
-      if (!(y * y <= gate_chi2 * S)) {
+      const double hph = (row.H * f.P * row.H.transpose())(0, 0);
+      const double S = hph + var + arr[r].var_m2;
+      const bool gated = !(y * y <= gate_chi2 * S);
+      g.seen[static_cast<size_t>(g.n_seen++)] = {static_cast<int>(k), y, hph, var + arr[r].var_m2, gated};
+      if (gated) {
         ++g.rejected;
         continue;
       }
@@ -491,6 +512,11 @@ void TdoaEstimator::update(Track& t, CvFilter<D>& f, const Blink& b, std::vector
     }
   }
   stats_.rejected_geometry += g.geometry;
+  for (int i = 0; i < g.n_seen; ++i) {
+    const auto& e = g.seen[static_cast<size_t>(i)];
+    consistency_.add_scalar("TDOA", clocks_.anchor_id(arr[static_cast<size_t>(e.k)].anchor),
+                            utime_to_s(b.utime), e.y, e.hph, e.var, e.gated, rx_setting_);
+  }
   // A blink whose differences mostly disagree with the track says the track is wrong more than
   // that they are: the few that pass are not applied either (they would drag a lost track
   // further), and enough such blinks in a row restart it from a fresh fix.

@@ -20,6 +20,7 @@
 
 #include "core/cv_filter.hpp"
 #include "core/drop_reasons.hpp"
+#include "core/consistency.hpp"
 #include "core/time_guard.hpp"
 #include "core/pose_tally.hpp"
 #include "core/site.hpp"
@@ -55,6 +56,9 @@ struct TdoaParams {
   bool sequential = false;       // scalar updates per difference instead of one vector update
   // Timestamp noise of one blink reception: 004's R = 3e-20 s^2 (sqrt = 0.17 ns, 5 cm).
   double rx_sigma_ns = 0.17;
+  // Learn each anchor's sync noise from its innovations (core/consistency.hpp), never below
+  // sync_sigma_ns.
+  bool learn_noise = true;
   double accel_psd = 0.5;        // process noise, (m/s^2)^2/Hz
   double gate_sigma = 4.0;       // reject a difference with |innovation| > gate_sigma * sqrt(S)
   double epoch_window_s = 0.05;  // reports of one blink arrive within this of the first
@@ -121,6 +125,9 @@ class TdoaEstimator {
   const TimeGuardStats& time_stats() const { return guard_.stats(); }
   const TdoaParams& params() const { return params_; }
   const ClockSync& clocks() const { return clocks_; }
+  // Each anchor's range-difference innovations against the assumed reception noise
+  // (core/consistency.hpp).
+  const ConsistencyMonitor& consistency() const { return consistency_; }
   const std::string& master_id() const { return clocks_.master_id(); }
 
  private:
@@ -182,6 +189,8 @@ class TdoaEstimator {
   std::vector<Arrival> arrivals_;                           // scratch, reused
   TdoaStats stats_;
   TimeGuard guard_;  // per sender (core/time_guard.hpp)
+  ConsistencyMonitor consistency_;
+  std::string rx_setting_;  // "rx_sigma_ns 0.17"
 };
 
 }  // namespace ips::uwb_tdoa
