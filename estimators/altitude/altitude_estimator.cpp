@@ -31,7 +31,7 @@ AltitudeParams parse_altitude_params(const YamlField& s) {
                 "pressure_sigma_pa", "accel_sigma_mps2", "initial_speed_sigma_mps", "gate_sigma",
                 "max_rejections", "align_wait_s", "max_reference_age_s",
                 "reference_drift_pa_per_s", "max_gap_s", "publish_period_s", "floors",
-                "max_tags"});
+                "max_tags", "sensors", "learn_noise", "mode", "relative_start_s"});
   p.reference = s.get_string("reference", p.reference);
   const YamlField offsets = s["offsets_pa"];
   if (offsets.defined()) {
@@ -61,6 +61,36 @@ AltitudeParams parse_altitude_params(const YamlField& s) {
   p.max_gap_s = s.get_double_in("max_gap_s", p.max_gap_s, 0.01, 3600);
   p.publish_period_s = s.get_double_in("publish_period_s", p.publish_period_s, 0, 3600);
   p.max_tags = static_cast<int>(s.get_int_in("max_tags", p.max_tags, 1, 100000));
+  p.learn_noise = s.get_bool("learn_noise", p.learn_noise);
+  p.mode = s.get_string("mode", p.mode);
+  if (p.mode != "auto" && p.mode != "differential" && p.mode != "relative")
+    s["mode"].fail("expected auto, differential or relative");
+  p.relative_start_s = s.get_double_in("relative_start_s", p.relative_start_s, 0, 600);
+  const YamlField sensors = s["sensors"];
+  if (sensors.defined()) {
+    if (!sensors.is_map()) sensors.fail("expected a map of sensor id: {type, pressure_sigma_pa}");
+    for (const auto& kv : sensors.node()) {
+      if (!kv.first.IsScalar() || kv.first.Scalar().empty())
+        sensors.fail("expected a map of sensor id: {type, pressure_sigma_pa}");
+      const std::string id = kv.first.Scalar();
+      const YamlField f = sensors[id];
+      if (!f.is_map()) f.fail("expected a map with type, oversampling, pressure_sigma_pa, rate_hz");
+      f.check_keys({"type", "oversampling", "pressure_sigma_pa", "rate_hz"});
+      SensorParams sp;
+      sp.type = f.get_string("type", "");
+      if (f["oversampling"].defined())
+        sp.oversampling = static_cast<int>(f.get_int_in("oversampling", 0, 0, 3));
+      if (!sp.type.empty() && std::isnan(sensor_type_sigma_pa(sp.type, sp.oversampling)))
+        f["type"].fail("unknown barometer type '" + printable(sp.type) +
+                       "' (known: BMP180, BMP280, BMP390, MPL115A1; or give pressure_sigma_pa)");
+      if (sp.oversampling >= 0 && sp.type != "BMP180")
+        f["oversampling"].fail("oversampling is read for a BMP180 only");
+      if (f["pressure_sigma_pa"].defined())
+        sp.pressure_sigma_pa = f.get_double_in("pressure_sigma_pa", 1.0, 1e-3, 1000);
+      if (f["rate_hz"].defined()) sp.rate_hz = f.get_double_in("rate_hz", 1.0, 0.01, 1000);
+      p.sensors[id] = sp;
+    }
+  }
   const YamlField floors = s["floors"];
   if (floors.defined()) {
     if (!floors.is_map()) floors.fail("expected a map with heights_m");
@@ -84,6 +114,44 @@ AltitudeParams parse_altitude_params(const YamlField& s) {
   return p;
 }
 
+double sensor_type_sigma_pa(const std::string& type, int oversampling) {
+  // The data sheet's figure of the sensor's quietest setting unless the setting is given: the
+  // learned noise never goes below the configured one (core/consistency.hpp) but rises to what
+  // the sensor shows, up to 20x.
+  // BMP180 data sheet (BST-BMP180-DS000, table of modes; BMP085's is the same): RMS noise 0.06,
+  // 0.05, 0.04, 0.03 hPa at oss 0 to 3.
+  if (type == "BMP180") return oversampling >= 0 && oversampling <= 3 ? 6.0 - oversampling : 3.0;
+  // BMP280 data sheet (BST-BMP280-DS001, recommended settings): "indoor navigation", 1.6 cm
+  // RMS, about 0.19 Pa ("weather monitoring", its noisiest: 26.4 cm, 3.1 Pa).
+  if (type == "BMP280") return 0.19;
+  // BMP390 data sheet (BST-BMP390-DS002): RMS noise 0.02 Pa in its highest-resolution setting.
+  if (type == "BMP390") return 0.02;
+  // MPL115A1 data sheet (NXP, rev. 8): resolution 0.15 kPa (accuracy +-1 kPa), no noise
+  // figure: the resolution's quantisation noise, 150 / sqrt(12) = 43 Pa.
+  if (type == "MPL115A1") return 43.0;
+  return NAN;
+}
+
+double AltitudeParams::sigma_pa(const std::string& sensor_id) const {
+  const auto it = sensors.find(sensor_id);
+  if (it == sensors.end()) return pressure_sigma_pa;
+  if (std::isfinite(it->second.pressure_sigma_pa)) return it->second.pressure_sigma_pa;
+  const double s = sensor_type_sigma_pa(it->second.type, it->second.oversampling);
+  return std::isfinite(s) ? s : pressure_sigma_pa;
+}
+
+std::string AltitudeParams::sigma_setting(const std::string& sensor_id) const {
+  char v[32];
+  std::snprintf(v, sizeof v, "%g", sigma_pa(sensor_id));
+  const auto it = sensors.find(sensor_id);
+  if (it == sensors.end()) return std::string("pressure_sigma_pa ") + v;
+  if (std::isfinite(it->second.pressure_sigma_pa))
+    return "sensors." + sensor_id + ".pressure_sigma_pa " + v;
+  if (!it->second.type.empty())
+    return "sensors." + sensor_id + ".type " + it->second.type + " (pressure_sigma_pa " + v + ")";
+  return std::string("pressure_sigma_pa ") + v;
+}
+
 AltitudeEstimator::AltitudeEstimator(AltitudeSink sink, std::string source_name)
     : sink_(std::move(sink)), source_(std::move(source_name)) {}
 
@@ -93,6 +161,42 @@ void AltitudeEstimator::set_site(const Site& site) {
   site_ = site;
   tracks_.clear();
   stations_.clear();
+  consistency_.clear();
+  consistency_.set_learning(params_.learn_noise);
+  relative_ = params_.mode == "relative" ||
+              (params_.mode == "auto" && site.baro_stations.empty() && params_.reference.empty());
+}
+
+utime_t AltitudeEstimator::reading_time(const std::string& sensor_id, utime_t stamp) {
+  auto found = timing_.find(sensor_id);
+  if (found == timing_.end()) {
+    if (timing_.size() >= 2 * static_cast<size_t>(params_.max_tags)) return stamp;
+    found = timing_.try_emplace(sensor_id).first;
+  }
+  Timing& tm = found->second;
+  if (tm.distinct == 0) {
+    tm = {stamp, stamp, stamp, 1};
+    return stamp;
+  }
+  if (stamp < tm.last_stamp) return 0;
+  // The sensor's period: configured, else its stamps' span over their count (a burst of N
+  // lines read at once counts N readings), else 1 ms until a second of stamps is known.
+  double period_s = 1e-3;
+  const auto cfg = params_.sensors.find(sensor_id);
+  if (cfg != params_.sensors.end() && std::isfinite(cfg->second.rate_hz)) {
+    period_s = 1.0 / cfg->second.rate_hz;
+  } else if (tm.last_stamp - tm.first_stamp >= s_to_utime(1.0)) {
+    period_s = utime_to_s(tm.last_stamp - tm.first_stamp) / static_cast<double>(tm.distinct);
+  }
+  utime_t t = stamp;
+  if (stamp == tm.last_stamp || stamp <= tm.last_time) {
+    t = tm.last_time + std::max<utime_t>(1, s_to_utime(period_s));
+    ++stats_.retimed;
+  }
+  ++tm.distinct;
+  tm.last_stamp = stamp;
+  tm.last_time = t;
+  return t;
 }
 
 void AltitudeEstimator::on_baro(const baro_t& m) {
@@ -113,6 +217,20 @@ void AltitudeEstimator::on_baro(const baro_t& m) {
     --stats_.readings_in;  // counted when handed over again, or dropped as a time jump
     return;
   }
+  const utime_t t = reading_time(m.sensor_id, m.utime);
+  if (t == 0) {
+    ++stats_.dropped_out_of_order;
+    return;
+  }
+  if (t != m.utime) {
+    baro_t retimed = m;
+    retimed.utime = t;
+    return accept(retimed);
+  }
+  accept(m);
+}
+
+void AltitudeEstimator::accept(const baro_t& m) {
   const auto offset = params_.offsets_pa.find(m.sensor_id);
   const double pressure = m.pressure_pa - (offset == params_.offsets_pa.end() ? 0 : offset->second);
   if (m.utime > newest_utime_) newest_utime_ = m.utime;
@@ -191,8 +309,34 @@ AltitudeEstimator::pick_reference(utime_t t) const {
 void AltitudeEstimator::drain(bool flush) {
   const utime_t wait_us = s_to_utime(params_.align_wait_s);
   for (auto& [tag_id, t] : tracks_) {
+    if (relative_ && !t.have_start && !t.pending.empty()) {
+      // Height 0: the mean of the first relative_start_s of readings, once they are all here.
+      const utime_t t0 = t.pending.front().utime;
+      const utime_t end = t0 + s_to_utime(params_.relative_start_s);
+      if (!flush && t.pending.back().utime < end && t.pending.size() <= kMaxPending) continue;
+      double sum_p = 0, sum_t = 0;
+      int n = 0, nt = 0;
+      for (const TagReading& r : t.pending) {
+        if (r.utime > end) break;
+        sum_p += r.pressure_pa;
+        ++n;
+        if (std::isfinite(r.temperature_c)) {
+          sum_t += r.temperature_c;
+          ++nt;
+        }
+      }
+      t.have_start = true;
+      t.start_pressure_pa = sum_p / n;
+      t.start_temperature_c = nt > 0 ? sum_t / nt : NAN;
+      t.start_utime = t0;
+    }
     while (!t.pending.empty()) {
       const TagReading r = t.pending.front();
+      if (relative_) {
+        t.pending.pop_front();
+        use(tag_id, t, r, nullptr);
+        continue;
+      }
       const auto* station = pick_reference(r.utime);
       const bool covered = station && station->second.series.newest_utime() >= r.utime;
       if (!covered && !flush && newest_utime_ - r.utime < wait_us &&
@@ -208,47 +352,79 @@ void AltitudeEstimator::finish() { drain(true); }
 
 void AltitudeEstimator::use(const std::string& tag_id, Track& t, const TagReading& r,
                             const std::pair<const std::string, Station>* station) {
-  if (!station) {
-    if (stations_.empty()) {
-      ++stats_.dropped_no_reference;
-      problem_ = "no reference barometer heard yet: no altitude for " + printable(tag_id);
+  BaroReference br;
+  double temperature_c = NAN, humidity = params_.humidity_pct;
+  double ref_var = 0;   // the reference reading's own noise, Pa^2 (white: in the measurement)
+  double bias_var = 0;  // what the filter cannot average away, Pa^2: a held reference's drift
+  double age_s = 0;
+  if (relative_) {
+    br.pressure_pa = t.start_pressure_pa;
+    br.height_m = 0;
+    temperature_c = std::isfinite(r.temperature_c) ? r.temperature_c : t.start_temperature_c;
+    age_s = utime_to_s(r.utime - t.start_utime);
+    // The start level is a mean of readings whose noise is not white over a second (real
+    // sensors wander): its error is taken as one reading's, a bias held for the whole track.
+    bias_var = params_.sigma_pa(tag_id) * params_.sigma_pa(tag_id);
+  } else {
+    if (!station) {
+      if (stations_.empty()) {
+        ++stats_.dropped_no_reference;
+        problem_ = "no reference barometer heard yet: no altitude for " + printable(tag_id);
+        return;
+      }
+      ++stats_.dropped_stale_reference;
+      auto newest = stations_.begin();
+      for (auto it = stations_.begin(); it != stations_.end(); ++it)
+        if (it->second.series.newest_utime() > newest->second.series.newest_utime()) newest = it;
+      const std::string& id = newest->first;
+      const double age = utime_to_s(r.utime - newest->second.series.newest_utime());
+      problem_ = "reference " + printable(id) + " stale: its newest reading is " + seconds(age) +
+                 " s older than " + printable(tag_id) + "'s (max_reference_age_s " +
+                 seconds(params_.max_reference_age_s) + ")";
       return;
     }
-    ++stats_.dropped_stale_reference;
-    auto newest = stations_.begin();
-    for (auto it = stations_.begin(); it != stations_.end(); ++it)
-      if (it->second.series.newest_utime() > newest->second.series.newest_utime()) newest = it;
-    const std::string& id = newest->first;
-    const double age = utime_to_s(r.utime - newest->second.series.newest_utime());
-    problem_ = "reference " + printable(id) + " stale: its newest reading is " + seconds(age) +
-               " s older than " + printable(tag_id) + "'s (max_reference_age_s " +
-               seconds(params_.max_reference_age_s) + ")";
-    return;
+    if (t.reference_id != station->first) {
+      if (!t.reference_id.empty()) ++stats_.reference_switches;
+      t.reference_id = station->first;
+    }
+    const ReferenceAt ref = *station->second.series.at(r.utime);
+    const ReferenceReading& rr = ref.reading;
+    temperature_c = std::isfinite(rr.temperature_c) ? rr.temperature_c : r.temperature_c;
+    if (std::isfinite(rr.humidity_pct)) humidity = rr.humidity_pct;
+    br.pressure_pa = rr.pressure_pa;
+    br.height_m = rr.height_m;
+    age_s = ref.age_s;
+    // A station listed under sensors has its own noise; else it is taken as exact (a
+    // reference station is usually averaged or better than the tags).
+    if (params_.sensors.count(station->first)) {
+      const double s = params_.sigma_pa(station->first);
+      ref_var = s * s;
+    }
   }
-  if (t.reference_id != station->first) {
-    if (!t.reference_id.empty()) ++stats_.reference_switches;
-    t.reference_id = station->first;
-  }
-  const ReferenceAt ref = *station->second.series.at(r.utime);
-  const ReferenceReading& rr = ref.reading;
-  const double temperature_c = std::isfinite(rr.temperature_c) ? rr.temperature_c
-                               : std::isfinite(r.temperature_c) ? r.temperature_c
-                                                                : params_.temperature_c;
-  const double humidity = std::isfinite(rr.humidity_pct) ? rr.humidity_pct : params_.humidity_pct;
-  BaroReference br;
-  br.pressure_pa = rr.pressure_pa;
-  br.height_m = rr.height_m;
+  if (!std::isfinite(temperature_c)) temperature_c = params_.temperature_c;
   br.inverse_scale_height = barometric::inverse_scale_height_per_m(
-      temperature_c, humidity, rr.pressure_pa, params_.gravity_mps2);
-  const double drift = params_.reference_drift_pa_per_s * ref.age_s;
-  const double var = params_.pressure_sigma_pa * params_.pressure_sigma_pa + drift * drift;
+      temperature_c, humidity, br.pressure_pa, params_.gravity_mps2);
+  // Weather drift since the reference's level was read (a held station, or relative mode's
+  // start): a bias common to all readings, reported in the height's sigma, not averaged away.
+  const double drift = params_.reference_drift_pa_per_s * age_s;
+  bias_var += drift * drift;
+  const double sigma_cfg = params_.sigma_pa(tag_id);
+  const double var_cfg = sigma_cfg * sigma_cfg + ref_var;
+  // The noise in use: learned from this sensor's innovations (core/consistency.hpp) within
+  // 1x to 20x the configured sigma, unless learn_noise is off.
+  const double var = consistency_.variance("BARO", tag_id, var_cfg);
 
   CvFilter<1>& f = t.filter;
   bool restart = !t.initialised || utime_to_s(r.utime - t.last_utime) > params_.max_gap_s;
   if (!restart) {
     f.predict(utime_to_s(r.utime - t.last_utime), params_.accel_sigma_mps2 * params_.accel_sigma_mps2);
+    const BaroPrediction pred = predict_baro(f.x(0), br);
+    const double hph = pred.dpressure_dheight * pred.dpressure_dheight * f.P(0, 0);
+    const double innovation = r.pressure_pa - pred.pressure_pa;
     const UpdateResult u = update_baro_height<2>(f.x, f.P, 0, r.pressure_pa, br, var,
                                                  params_.gate_sigma * params_.gate_sigma);
+    consistency_.add_scalar("BARO", tag_id, utime_to_s(r.utime), innovation, hph, var_cfg,
+                            !u.accepted, params_.sigma_setting(tag_id));
     if (u.accepted) {
       ++stats_.used;
       t.rejections = 0;
@@ -257,10 +433,10 @@ void AltitudeEstimator::use(const std::string& tag_id, Track& t, const TagReadin
       restart = ++t.rejections >= params_.max_rejections;
     }
   }
+  const double dpdh = br.inverse_scale_height * r.pressure_pa;
   if (restart) {
     if (t.initialised) ++stats_.restarts;
     ++stats_.used;
-    const double dpdh = br.inverse_scale_height * r.pressure_pa;
     f.x << br.height_m + barometric::height_above_m(br.pressure_pa, r.pressure_pa,
                                                      br.inverse_scale_height),
         0.0;
@@ -269,6 +445,7 @@ void AltitudeEstimator::use(const std::string& tag_id, Track& t, const TagReadin
     t.initialised = true;
     t.rejections = 0;
   }
+  t.bias_var_m2 = bias_var / (dpdh * dpdh);
   t.last_utime = r.utime;
   t.floor.update(params_.floors, r.utime, f.x(0));
   if (t.last_publish_utime == 0 ||
@@ -279,10 +456,11 @@ void AltitudeEstimator::use(const std::string& tag_id, Track& t, const TagReadin
 void AltitudeEstimator::publish(const std::string& tag_id, Track& t, utime_t utime) {
   altitude_t a;
   a.utime = utime;
-  a.source = source_;
+  // altitude_t has no field for it yet: a relative height says so in its source.
+  a.source = relative_ ? source_ + "/relative" : source_;
   a.tag_id = tag_id;
   a.height_m = t.filter.x(0);
-  a.height_std_m = std::sqrt(std::max(0.0, t.filter.P(0, 0)));
+  a.height_std_m = std::sqrt(std::max(0.0, t.filter.P(0, 0)) + t.bias_var_m2);
   a.vertical_speed_mps = t.filter.x(1);
   a.floor_valid = t.floor.valid();
   a.floor = a.floor_valid ? t.floor.floor(params_.floors) : 0;

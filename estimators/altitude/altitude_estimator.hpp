@@ -14,6 +14,7 @@
 //      humidity (003: 50 %). Low lag: 003's 150-sample moving average delays by 7.5 s.
 //   4. Optionally the floor (floor_detector.hpp) from the floor heights in the site.
 // Pure: takes messages, emits altitude_t through a callback, never reads a clock.
+#include <cmath>
 #include <deque>
 #include <functional>
 #include <ips/altitude_t.hpp>
@@ -23,6 +24,7 @@
 #include <string>
 #include <utility>
 
+#include "core/consistency.hpp"
 #include "core/cv_filter.hpp"
 #include "core/drop_reasons.hpp"
 #include "core/time_guard.hpp"
@@ -31,6 +33,19 @@
 #include "estimators/altitude/reference_series.hpp"
 
 namespace ips::altitude {
+
+// One barometer's settings (estimators.altitude.sensors.<id>): its type gives a default noise
+// from its data sheet (sensor_type_sigma_pa); pressure_sigma_pa overrides it.
+struct SensorParams {
+  std::string type;                // BMP180, BMP280, BMP390, MPL115A1, or empty
+  int oversampling = -1;           // BMP180: its oss 0..3 (unset: its quietest's figure)
+  double pressure_sigma_pa = NAN;  // one reading's RMS noise; NaN: from the type
+  double rate_hz = NAN;            // readings per second; NaN: measured from the stamps
+};
+
+// The data sheet's RMS pressure noise of one reading of a known type (oversampling: BMP180's
+// oss; -1: its quietest mode's), or NaN for an unknown type. docs/site-file.md cites them.
+double sensor_type_sigma_pa(const std::string& type, int oversampling);
 
 struct AltitudeParams {
   std::string reference;                    // preferred station id; empty: the freshest
@@ -50,6 +65,18 @@ struct AltitudeParams {
   double publish_period_s = 0.0;   // 0: one altitude per tag reading
   FloorParams floors;
   int max_tags = 1000;
+  std::map<std::string, SensorParams> sensors;  // per sensor id
+  bool learn_noise = true;  // each sensor's pressure noise learned online (core/consistency.hpp)
+  // "differential" (against a reference station), "relative" (each tag's height from its own
+  // first readings: single-barometer mode), or "auto": relative when the site has no baro
+  // station and names no reference.
+  std::string mode = "auto";
+  double relative_start_s = 1.0;  // relative mode: the first readings averaged for height 0
+
+  // The configured noise of one reading of `sensor_id` (its own setting, else its type's data
+  // sheet figure, else pressure_sigma_pa), and the setting's name as the user writes it.
+  double sigma_pa(const std::string& sensor_id) const;
+  std::string sigma_setting(const std::string& sensor_id) const;
 };
 
 // Reads `estimators.altitude` of the site; throws ConfigError naming file, line and field.
@@ -70,6 +97,7 @@ struct AltitudeStats {
   int64_t dropped_no_reference = 0;              // no reference station heard yet
   int64_t dropped_stale_reference = 0;           // the reference's newest reading too old
   int64_t reference_switches = 0;
+  int64_t retimed = 0;  // readings sharing their sensor's previous stamp, spread at its rate
   int64_t altitudes_out = 0;
 
   // The readings that gave no altitude, by reason (HEALTH, ips-replay's summary); a reference
@@ -111,6 +139,10 @@ class AltitudeEstimator {
   // Time plausibility of the inputs, per sender (core/time_guard.hpp).
   const TimeGuardStats& time_stats() const { return guard_.stats(); }
   const AltitudeParams& params() const { return params_; }
+  // Innovations of every tag reading against the noise assumed for it, per sensor ("BARO").
+  const ConsistencyMonitor& consistency() const { return consistency_; }
+  // Relative mode (no reference station): heights are changes since each tag's first readings.
+  bool relative() const { return relative_; }
   // The latest reference problem, e.g. "reference B1 stale: its newest reading is 12.3 s older
   // than T1's"; empty when there was none. Cleared by take_problem().
   std::string take_problem() { return std::exchange(problem_, std::string()); }
@@ -131,12 +163,27 @@ class AltitudeEstimator {
     std::string reference_id;
     FloorDetector floor;
     utime_t last_publish_utime = 0;
+    // Relative mode: the mean of the first relative_start_s of readings is height 0.
+    bool have_start = false;
+    double start_pressure_pa = 0;
+    double start_temperature_c = NAN;
+    utime_t start_utime = 0;
+    double bias_var_m2 = 0;  // the reference's bias variance, in the published sigma
+  };
+  // Per sensor: its readings' stamps, to spread readings that share one at the sensor's rate.
+  struct Timing {
+    utime_t first_stamp = 0, last_stamp = 0, last_time = 0;
+    int64_t distinct = 0;  // readings with a stamp of their own
   };
   struct Station {
     ReferenceSeries series;
     utime_t last_in_utime = 0;
   };
 
+  // The time of a reading: its stamp, or, when it shares its sensor's previous stamp (several
+  // lines read at once), the previous reading's time plus one period. 0: out of order.
+  utime_t reading_time(const std::string& sensor_id, utime_t stamp);
+  void accept(const baro_t& m);  // a valid reading at its (possibly spread) time
   void on_reference(const baro_t& m, double pressure_pa);
   void on_tag(const baro_t& m, double pressure_pa);
   // Uses every pending reading whose reference is there, or which has waited long enough.
@@ -157,6 +204,9 @@ class AltitudeEstimator {
   utime_t newest_utime_ = 0;  // message time: the newest reading of any sensor
   AltitudeStats stats_;
   TimeGuard guard_;  // per sender (core/time_guard.hpp)
+  std::map<std::string, Timing> timing_;
+  ConsistencyMonitor consistency_;
+  bool relative_ = false;
   std::string problem_;
 };
 

@@ -10,6 +10,7 @@
 
 #include "core/channels.hpp"
 #include "core/cli.hpp"
+#include "core/consistency.hpp"
 #include "core/drop_reasons.hpp"
 #include "core/device_text.hpp"
 #include "core/log_input.hpp"
@@ -201,7 +202,19 @@ int main(int argc, char** argv) {
     // Readings that gave no altitude, by reason, in HEALTH once a second, with the newest
     // problem in words ("no reference barometer heard yet: no altitude for T1").
     ips::DropHealth drop_health;
-    node.add_timer(1.0, [&] { drop_health.report(node, est.drop_reasons(), est.take_problem()); });
+    // Each sensor's innovations against its assumed noise (core/consistency.hpp).
+    ips::ConsistencyHealth consistency_health;
+    node.add_timer(1.0, [&] {
+      drop_health.report(node, est.drop_reasons(), est.take_problem());
+      consistency_health.report(node, est.consistency());
+      // Single-barometer mode: said in HEALTH as well as in each altitude_t's source.
+      if (est.relative()) {
+        const std::string problems = est.consistency().problems();
+        const std::string text = problems.empty() ? est.consistency().summary() : problems;
+        node.set_consistency("relative heights (no reference station)" +
+                             (text.empty() ? std::string() : "; " + text));
+      }
+    });
     return node.run();
   });
 }

@@ -6,6 +6,7 @@ ips_unit_test(altitude_test
   estimators/altitude/altitude_estimator_test.cpp
   estimators/altitude/offset_calibration_test.cpp
   estimators/altitude/altitude_accuracy_test.cpp
+  estimators/altitude/altitude_noise_test.cpp
 )
 target_link_libraries(altitude_test PRIVATE ips_altitude)
 
