@@ -126,9 +126,11 @@ int main(int argc, char** argv) {
         [&](const ips::imu_t& m, const std::string&) { est.on_imu(m); });
     // Samples that went into no step, by reason, in HEALTH (drops, last_error) once a second.
     ips::DropHealth drop_health;
+    ips::ConsistencyHealth consistency_health;
     std::string heading_unknown;  // devices without a gyroscope, as said in HEALTH
     node.add_timer(1.0, [&] {
       drop_health.report(node, est.drop_reasons());
+      consistency_health.report(node, est.consistency());
       std::string devices;
       for (const std::string& d : est.accel_only_devices())
         devices += (devices.empty() ? "" : ", ") + ips::printable(d);

@@ -77,20 +77,33 @@ bool OrientationEkf::update_mag_heading(const Eigen::Vector3d& mag, const EarthF
                                         double norm_tolerance, double dip_tolerance_rad,
                                         double sigma_rad) {
   if (!mag.allFinite()) return false;
-  const Eigen::Vector3d m_w = q_ * mag;
+  return update_mag_heading_world(q_ * mag, field, norm_tolerance, dip_tolerance_rad, sigma_rad)
+      .field_ok;
+}
+
+MagUpdate OrientationEkf::update_mag_heading_world(const Eigen::Vector3d& m_w,
+                                                   const EarthField& field, double norm_tolerance,
+                                                   double dip_tolerance_rad, double sigma_rad,
+                                                   double gate_chi2, bool check_only) {
+  MagUpdate u;
+  if (!m_w.allFinite()) return u;
   const double norm = m_w.norm();
-  if (std::abs(norm - field.magnitude_ut) > norm_tolerance * field.magnitude_ut) return false;
+  if (std::abs(norm - field.magnitude_ut) > norm_tolerance * field.magnitude_ut) return u;
   const double dip = std::atan2(-m_w.z(), std::hypot(m_w.x(), m_w.y()));
-  if (std::abs(dip - deg_to_rad(field.inclination_deg)) > dip_tolerance_rad) return false;
+  if (std::abs(dip - deg_to_rad(field.inclination_deg)) > dip_tolerance_rad) return u;
+  u.field_ok = true;
   // A heading error dpsi (world z) turns the measured field by -dpsi about z.
   const Eigen::Vector3d ref = field.world();
-  const double innovation =
-      wrap_angle(std::atan2(ref.y(), ref.x()) - std::atan2(m_w.y(), m_w.x()));
+  u.innovation = wrap_angle(std::atan2(ref.y(), ref.x()) - std::atan2(m_w.y(), m_w.x()));
+  u.hph = P_(2, 2);
+  u.r = sigma_rad * sigma_rad;
   Mat<1, 6> H = Mat<1, 6>::Zero();
   H(0, 2) = 1.0;
+  if (check_only) return u;
   Vec<6> dx = Vec<6>::Zero();
-  if (scalar_update<6>(dx, P_, H, innovation, sigma_rad * sigma_rad).accepted) apply(dx);
-  return true;
+  u.accepted = scalar_update<6>(dx, P_, H, u.innovation, u.r, gate_chi2).accepted;
+  if (u.accepted) apply(dx);
+  return u;
 }
 
 void OrientationEkf::update_zero_rate(const Eigen::Vector3d& gyro, double sigma) {

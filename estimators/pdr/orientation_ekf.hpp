@@ -35,6 +35,15 @@ struct OrientationNoise {
   double zero_rate_sigma_rad_s = 0.01;
 };
 
+// One magnetometer heading update: whether the field passed the norm and dip checks, whether
+// the update was made (not gated), and its innovation with the prediction's and the assumed
+// measurement variance (rad^2), for the consistency monitor.
+struct MagUpdate {
+  bool field_ok = false;
+  bool accepted = false;
+  double innovation = 0, hph = 0, r = 0;
+};
+
 class OrientationEkf {
  public:
   // Still phone: tilt from the mean specific force; heading from the mean field (TRIAD) when
@@ -47,6 +56,13 @@ class OrientationEkf {
   // False (nothing changed) when the field fails the norm or dip check.
   bool update_mag_heading(const Eigen::Vector3d& mag, const EarthField& field,
                           double norm_tolerance, double dip_tolerance_rad, double sigma_rad);
+  // The same with the field already in the world frame (e.g. a mean of q m over a period, in
+  // which the walk's tilt oscillation and the sensor noise average out); innovations beyond
+  // gate_chi2 are refused. check_only: the innovation only, nothing changed.
+  MagUpdate update_mag_heading_world(const Eigen::Vector3d& m_w, const EarthField& field,
+                                     double norm_tolerance, double dip_tolerance_rad,
+                                     double sigma_rad, double gate_chi2 = kNoGate,
+                                     bool check_only = false);
   void update_zero_rate(const Eigen::Vector3d& gyro, double sigma);
 
   const Eigen::Quaterniond& q() const { return q_; }  // body -> world

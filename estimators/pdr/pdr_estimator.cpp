@@ -1,6 +1,7 @@
 #include "estimators/pdr/pdr_estimator.hpp"
 
 #include <cmath>
+#include <cstdio>
 #include <limits>
 
 #include "core/geometry.hpp"
@@ -30,7 +31,7 @@ PdrParams parse_pdr_params(const YamlField& s) {
                 "step_k", "step_k2", "body_height_m", "levi_s0_m", "levi_f0_hz",
                 "levi_m_per_hz", "step_min_m", "step_max_m", "use_magnetometer",
                 "mag_field_ut", "mag_inclination_deg", "mag_declination_deg",
-                "mag_norm_tolerance", "mag_dip_tolerance_deg", "mag_update_period_s",
+                "mag_norm_tolerance", "mag_dip_tolerance_deg", "mag_update_period_s", "mag_update_distance_m", "mag_gate_chi2",
                 "mag_heading_sigma_deg", "phone_yaw_offset_deg", "gyro_noise_rad_s",
                 "gyro_bias_walk_rad_s2", "init_still_s", "max_align_s", "still_gyro_rad_s",
                 "still_accel_mps2", "still_window_s", "step_length_sigma_m", "max_gap_s",
@@ -86,6 +87,8 @@ PdrParams parse_pdr_params(const YamlField& s) {
   bounded("mag_norm_tolerance", p.mag_norm_tolerance, 0, 10);
   bounded("mag_dip_tolerance_deg", p.mag_dip_tolerance_deg, 0, 180);
   bounded("mag_update_period_s", p.mag_update_period_s, 0, 100);
+  bounded("mag_update_distance_m", p.mag_update_distance_m, 0, 1000);
+  if (s["mag_gate_chi2"].defined()) bounded("mag_gate_chi2", p.mag_gate_chi2, 0.1, 1e6);
   double mag_sigma_deg = rad_to_deg(p.noise.mag_heading_sigma_rad);
   bounded("mag_heading_sigma_deg", mag_sigma_deg, 0.01, 180);
   p.noise.mag_heading_sigma_rad = deg_to_rad(mag_sigma_deg);
@@ -112,6 +115,12 @@ void PdrEstimator::set_site(const Site& site) {
   params_ = parse_pdr_params(site.estimator_params("pdr"));
   site_ = site;
   tracks_.clear();
+  consistency_.clear();
+  consistency_.monitor_only("MAG");
+  char setting[64];
+  std::snprintf(setting, sizeof setting, "mag_heading_sigma_deg %g",
+                rad_to_deg(params_.noise.mag_heading_sigma_rad));
+  mag_setting_ = setting;
 }
 
 void PdrEstimator::on_imu(const imu_t& m) {
@@ -257,10 +266,14 @@ void PdrEstimator::align(Track& t, const std::string& tag_id, bool rested) {
   const double offset = deg_to_rad(params_.phone_yaw_offset_deg);
   double start_heading = 0.0;
   if (tag && std::isfinite(tag->start_heading_rad)) start_heading = tag->start_heading_rad;
-  const Eigen::Vector3d mag = params_.use_magnetometer && t.n_mag > 0
+  // The initial heading: the site's start heading when it gives one (surveyed; the field at
+  // one spot indoors is off by the building's disturbance, several degrees, and a heading error
+  // at the start grows into the largest position error of the walk), else the field (TRIAD).
+  const bool site_heading = tag && std::isfinite(tag->start_heading_rad);
+  const Eigen::Vector3d mag = params_.use_magnetometer && t.n_mag > 0 && !site_heading
                                   ? Eigen::Vector3d(t.sum_m / t.n_mag)
                                   : Eigen::Vector3d::Constant(kNaN);
-  // Without the magnetometer the device x axis points at the walking heading + offset - 90 deg.
+  // From the site's heading, the device x axis points at the walking heading + offset - 90 deg.
   if (!t.accel_only)
     t.ekf.initialise(t.sum_a / t.n, t.sum_g / t.n, mag, params_.field,
                      start_heading + offset - M_PI / 2, rested ? 0.002 : 0.05);
@@ -305,15 +318,27 @@ void PdrEstimator::walk(Track& t, const std::string& tag_id, const Sample& m, do
       t.ekf.update_zero_rate(g, params_.noise.zero_rate_sigma_rad_s);
       t.gravity += std::min(1.0, dt / params_.gravity_window_s) * (a.norm() - t.gravity);
     }
-    if (params_.use_magnetometer && mag.allFinite() &&
-        utime_to_s(m.utime - t.last_mag_update) >= params_.mag_update_period_s) {
-      t.last_mag_update = m.utime;
-      if (t.ekf.update_mag_heading(mag, params_.field, params_.mag_norm_tolerance,
-                                   deg_to_rad(params_.mag_dip_tolerance_deg),
-                                   params_.noise.mag_heading_sigma_rad))
-        ++stats_.mag_updates;
-      else
-        ++stats_.mag_rejected;
+    if (params_.use_magnetometer && mag.allFinite()) {
+      // The field in the world frame, averaged over the update period.
+      t.sum_mw += t.ekf.q() * mag;
+      ++t.n_mw;
+      t.sum_check += t.ekf.q() * mag;
+      ++t.n_check;
+    }
+    if (t.n_check > 0 &&
+        utime_to_s(m.utime - t.last_mag_check) >= params_.mag_update_period_s) {
+      // The consistency check: the heading innovation of the field over this period, against
+      // the assumed sigma, whether or not it is used.
+      t.last_mag_check = m.utime;
+      const MagUpdate c = t.ekf.update_mag_heading_world(
+          t.sum_check / t.n_check, params_.field, params_.mag_norm_tolerance,
+          deg_to_rad(params_.mag_dip_tolerance_deg), params_.noise.mag_heading_sigma_rad,
+          kNoGate, true);
+      t.sum_check.setZero();
+      t.n_check = 0;
+      if (c.field_ok)
+        consistency_.add_scalar("MAG", tag_id, utime_to_s(m.utime), c.innovation, c.hph, c.r,
+                                false, mag_setting_);
     }
   }
   const double heading =
@@ -329,6 +354,35 @@ void PdrEstimator::walk(Track& t, const std::string& tag_id, const Sample& m, do
   const double theta = std::atan2(t.sum_sin, t.sum_cos);
   t.sum_cos = t.sum_sin = 0;
   emit_step(t, tag_id, *step, theta);
+  if (!replay) update_mag(t, tag_id, m.utime);
+}
+
+void PdrEstimator::update_mag(Track& t, const std::string& tag_id, utime_t now) {
+  // The building's disturbance of the field is a function of place, not time: at one spot
+  // every reading carries the same error, and a heading "corrected" by it twice a second at
+  // rest is pulled to the local field (up to 15 deg on walk-square). So the heading is updated
+  // once per mag_update_distance_m walked (about the disturbance's correlation length), with
+  // the world-frame field averaged over that stretch, and never while standing.
+  if (t.n_mw == 0 || t.mag_distance_m < params_.mag_update_distance_m ||
+      utime_to_s(now - t.last_mag_update) < params_.mag_update_period_s)
+    return;
+  t.last_mag_update = now;
+  const MagUpdate u = t.ekf.update_mag_heading_world(
+      t.sum_mw / t.n_mw, params_.field, params_.mag_norm_tolerance,
+      deg_to_rad(params_.mag_dip_tolerance_deg), params_.noise.mag_heading_sigma_rad,
+      params_.mag_gate_chi2);
+  t.sum_mw.setZero();
+  t.n_mw = 0;
+  t.mag_distance_m = 0;
+  if (u.field_ok) {
+    if (!u.accepted)  // refused by mag_gate_chi2 (the checks above see every period)
+      consistency_.add_scalar("MAG", tag_id, utime_to_s(now), u.innovation, u.hph, u.r, true,
+                              mag_setting_);
+    ++stats_.mag_updates;
+    if (!u.accepted) ++stats_.mag_gated;
+  } else {
+    ++stats_.mag_rejected;
+  }
 }
 
 void PdrEstimator::emit_step(Track& t, const std::string& tag_id, const DetectedStep& step,
@@ -351,6 +405,7 @@ void PdrEstimator::emit_step(Track& t, const std::string& tag_id, const Detected
   }
   const Eigen::Vector2d dir(std::cos(theta), std::sin(theta));
   t.position += sl * dir;
+  t.mag_distance_m += sl;
   // Along the step: the length's noise; across it: the heading's.
   const double along = params_.step_length_sigma_m * params_.step_length_sigma_m;
   const double across = sl * sl * std::max(t.ekf.yaw_variance(), 0.0);

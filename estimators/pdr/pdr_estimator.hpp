@@ -33,6 +33,7 @@
 #include <string>
 #include <vector>
 
+#include "core/consistency.hpp"
 #include "core/drop_reasons.hpp"
 #include "core/time_guard.hpp"
 #include "core/site.hpp"
@@ -53,7 +54,10 @@ struct PdrParams {
   bool use_magnetometer = true;
   double mag_norm_tolerance = 0.15;      // |m| within 15 % of the Earth field
   double mag_dip_tolerance_deg = 8.0;
-  double mag_update_period_s = 0.5;      // disturbances are correlated: not every sample
+  double mag_update_period_s = 0.5;      // at most one heading update per this ...
+  double mag_update_distance_m = 2.0;    // ... and per this distance walked (disturbances are
+                                         // a function of place: correlated over metres)
+  double mag_gate_chi2 = kNoGate;        // innovation gate of the heading update
   double phone_yaw_offset_deg = 0.0;     // phone's top relative to the walking direction, CCW
   double gravity_mps2 = 9.81;            // only to recognise rest before the phone's own is known
   double gravity_window_s = 10.0;        // time constant of the phone's own gravity estimate
@@ -87,6 +91,7 @@ struct PdrStats {
   int64_t alignments_too_slow = 0;  // sample rate below 4 x the step filter's cut-off: refused
   int64_t mag_updates = 0;
   int64_t mag_rejected = 0;        // field failed the norm or dip check
+  int64_t mag_gated = 0;           // of mag_updates, refused by the innovation gate
   int64_t steps = 0;
   int64_t no_start_pose = 0;       // tags started at the origin: no start_position in the site
 
@@ -121,6 +126,10 @@ class PdrEstimator {
   // Time plausibility of the inputs, per sender (core/time_guard.hpp).
   const TimeGuardStats& time_stats() const { return guard_.stats(); }
   const PdrParams& params() const { return params_; }
+  // The magnetometer's heading innovations against mag_heading_sigma_deg, per device ("MAG"),
+  // checked every mag_update_period_s whether or not used (used once per
+  // mag_update_distance_m); refused by mag_gate_chi2: gated. Checked only, never learned.
+  const ConsistencyMonitor& consistency() const { return consistency_; }
   // Devices seen without a gyroscope (steps only, heading unknown), for HEALTH.
   std::vector<std::string> accel_only_devices() const;
 
@@ -151,6 +160,12 @@ class PdrEstimator {
     std::unique_ptr<StepDetector> detector;
     double still_s = 0;
     utime_t last_mag_update = 0;
+    Eigen::Vector3d sum_mw = Eigen::Vector3d::Zero();  // q m since the last update
+    int n_mw = 0;
+    Eigen::Vector3d sum_check = Eigen::Vector3d::Zero();  // q m since the last check
+    int n_check = 0;
+    utime_t last_mag_check = 0;
+    double mag_distance_m = 0;  // walked since the last heading update
     double sum_cos = 0, sum_sin = 0;  // walking heading since the last step
     Eigen::Vector2d position = Eigen::Vector2d::Zero();
     Eigen::Matrix2d cov = Eigen::Matrix2d::Zero();
@@ -161,6 +176,7 @@ class PdrEstimator {
   void align(Track& t, const std::string& tag_id, bool rested);
   // One sample of an aligned track; `replay`: taken while aligning (no attitude update).
   void walk(Track& t, const std::string& tag_id, const Sample& m, double dt, bool replay);
+  void update_mag(Track& t, const std::string& tag_id, utime_t now);
   void emit_step(Track& t, const std::string& tag_id, const DetectedStep& step, double theta);
 
   StepSink step_sink_;
@@ -171,6 +187,8 @@ class PdrEstimator {
   std::map<std::string, Track> tracks_;
   PdrStats stats_;
   TimeGuard guard_;  // per sender (core/time_guard.hpp)
+  ConsistencyMonitor consistency_;
+  std::string mag_setting_;
 };
 
 }  // namespace ips::pdr

@@ -109,6 +109,45 @@ TEST(PdrAccuracy, Loop840StepsDistanceAndClosure) {
   EXPECT_LT(r.closure_m, 20.0);
 }
 
+// walk-square's POSE_PDR horizontal RMSE on seeds 1 to 5. Before issue 22 (magnetometer
+// heading updates twice a second, also at rest; TRIAD start heading from the local field):
+// 2.88 / 9.50 / 4.53 / 2.34 / 6.31 m. With the site's start heading and one heading update per
+// 2 m walked: 2.40 / 5.82 / 3.02 / 1.69 / 3.39 m. Issue 22 asks for 2 m on every seed: not met
+// yet (the remaining error is the building's field pulling the heading); the bound guards the
+// gain.
+TEST(PdrAccuracy, WalkSquareRmse) {
+  const double bound_m[] = {2.6, 6.3, 3.3, 1.9, 3.7};
+  for (uint64_t seed : {1, 2, 3, 4, 5}) {
+    const PdrRun r = run("walk-square", seed);
+    print("walk-square seed " + std::to_string(seed), r, r.path_m / 0.72);
+    EXPECT_LE(r.row.rmse_h, bound_m[seed - 1]) << "seed " << seed;
+  }
+}
+
+// Consistency (issue 22): with mag_heading_sigma_deg 10x too small (1.15 deg for 11.5) the
+// magnetometer's heading innovations are named in problems() within 10 s of walking; with the
+// default, no problem is said.
+TEST(PdrAccuracy, TooSmallMagSigmaIsSaidWithin10Seconds) {
+  for (const bool wrong : {false, true}) {
+    sim::Scenario sc = sim::load_scenario("walk-square");
+    sc.duration_s = 10 + 1 + 10;  // 10 s at rest, then 10 s of walking (and the filter's 1 s)
+    PdrEstimator est([](const step_t&) {}, [](const pose_t&) {});
+    Site site = sc.site;
+    if (wrong) site.estimators = parse_yaml_text("pdr: {mag_heading_sigma_deg: 1.15}", "params");
+    est.set_site(site);
+    test::run_simulated(sc, 1, {.imu = [&](const imu_t& m) { est.on_imu(m); }});
+    const std::string problems = est.consistency().problems();
+    std::printf("mag sigma %s: %s | %s\n", wrong ? "1.15 deg" : "default", problems.c_str(),
+                est.consistency().summary().c_str());
+    if (wrong) {
+      EXPECT_NE(problems.find("MAG P1"), std::string::npos) << problems;
+      EXPECT_NE(problems.find("mag_heading_sigma_deg"), std::string::npos) << problems;
+    } else {
+      EXPECT_EQ(problems, "");
+    }
+  }
+}
+
 // The zero-crossing detector and the norm signal count the same steps within 2 %.
 TEST(PdrAccuracy, ZeroCrossingAndNormSignalAlsoCountTheSteps) {
   for (const char* params : {"{detector: zero_crossing}", "{signal: norm}"}) {
