@@ -393,3 +393,45 @@ TEST(AoaEstimator, AnAnchorTenTimesNoisierThanConfiguredIsNamedWithin10s) {
 
 }  // namespace
 }  // namespace ips::aoa
+
+namespace ips::aoa {
+namespace {
+
+// Issue 22: angles that fit no position (random within the field of view) never give a pose
+// outside the site's box, in 3D (no tag height) too, and never one on an anchor.
+TEST(AoaEstimator, NonsenseAnglesStayInsideTheSiteAndOffTheAnchors) {
+  for (const char* params : {"{mode: 3d}", "{mode: 3d, method: per_epoch}", "{}"}) {
+    Collected out;
+    AoaEstimator est(out.sink());
+    const Site site = hall_site(params);
+    est.set_site(site);
+    std::mt19937 rng(11);
+    std::uniform_real_distribution<double> angle(-85.0, 85.0);
+    for (int i = 0; i < 600; ++i) {
+      const utime_t t = kT0 + i * 100000;
+      int k = 0;
+      for (const char* a : {"A1", "A2", "A3", "A4"}) {
+        ble_aoa_t m = event(site, a, "T1", Eigen::Vector3d(2, 4, 1), t + 5000 * k++);
+        m.azimuth_deg = static_cast<float>(angle(rng));
+        m.elevation_deg = static_cast<float>(angle(rng) / 2);
+        est.on_event(m);
+      }
+    }
+    est.finish();
+    for (const pose_t& p : out.poses) {
+      ASSERT_GE(p.position[0], -0.105 - 1.0) << params;
+      ASSERT_LE(p.position[0], 4.651 + 1.0) << params;
+      ASSERT_GE(p.position[1], -0.119 - 1.0) << params;
+      ASSERT_LE(p.position[1], 8.126 + 1.0) << params;
+      ASSERT_GE(p.position[2], 1.627 - 3.0) << params;
+      ASSERT_LE(p.position[2], 1.723 + 1.0) << params;
+      for (const char* a : {"A1", "A2", "A3", "A4"}) {
+        const Eigen::Vector3d& ap = site.find_anchor(a)->position;
+        EXPECT_GT(std::hypot(p.position[0] - ap.x(), p.position[1] - ap.y()), 0.05) << params;
+      }
+    }
+  }
+}
+
+}  // namespace
+}  // namespace ips::aoa

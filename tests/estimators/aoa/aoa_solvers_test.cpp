@@ -213,3 +213,27 @@ TEST(AoaSolvers, NamesRoundTrip) {
 
 }  // namespace
 }  // namespace ips::aoa
+
+namespace ips::aoa {
+namespace {
+
+// Issue 22: a warm start on an anchor (where its bearing is undefined and the plain cost has a
+// false minimum) does not keep the LM there: it finds the tag.
+TEST(AoaSolvers, AWarmStartOnAnAnchorDoesNotStayThere) {
+  const auto frames = hall();
+  for (const Point& pt : kHallPoints) {
+    for (const auto& f : frames) {
+      AoaSolveOptions o;
+      o.height_m = pt.p.z();
+      o.initial = Eigen::Vector3d(f.position.x() + 1e-4, f.position.y(), pt.p.z());
+      const AoaSolution s = solve_aoa(exact(frames, pt.p), o);
+      ASSERT_TRUE(s.ok) << pt.name << ": " << s.failure;
+      EXPECT_NEAR((s.position - pt.p).head<2>().norm(), 0.0, 1e-3) << pt.name;
+      for (const auto& g : frames)
+        EXPECT_GT((s.position - g.position).head<2>().norm(), 0.3) << pt.name;
+    }
+  }
+}
+
+}  // namespace
+}  // namespace ips::aoa
