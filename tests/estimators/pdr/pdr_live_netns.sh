@@ -2,7 +2,7 @@
 # ips-pdr end to end over real LCM multicast in a private network namespace: ips-sim
 # (walk-square, seed 1, 174 s at 10x: at 20x, 2000 IMU datagrams a second, a loaded machine dropped
 # one), ips-pdr (site from the SITE message) and the real
-# lcm-logger as separate processes. On the recorded log: STEP has the in-process run's 277 steps
+# lcm-logger as separate processes. On the recorded log: STEP has the in-process run's 278 steps
 # (a live run sees the same samples in the same order), POSE_PDR as many poses, the last one
 # within 5 m of the start (in-process closure: 3.46 m), and HEALTH from ips-pdr is there.
 # Exit 77 (skipped) when no network namespace can be made here.
@@ -30,8 +30,8 @@ stop $logger lcm-logger
   fail "ips-export failed"
 steps=$(($(wc -l <"$WORK/csv/STEP.csv") - 1))
 poses=$(($(wc -l <"$WORK/csv/POSE_PDR.csv") - 1))
-[ "$steps" -eq 277 ] || fail "STEP: $steps steps (expected 277)"
-[ "$poses" -eq 277 ] || fail "POSE_PDR: $poses poses (expected 277)"
+[ "$steps" -eq 278 ] || fail "STEP: $steps steps (expected 278)"
+[ "$poses" -eq 278 ] || fail "POSE_PDR: $poses poses (expected 278)"
 python3 - "$WORK/csv/POSE_PDR.csv" <<'PY' || fail "POSE_PDR: the walk does not close"
 import csv, math, sys
 rows = list(csv.DictReader(open(sys.argv[1])))
