@@ -66,6 +66,12 @@ struct FuseParams {
   double angle_gate_sigma = 3.0;
   double nlos_gate_sigma = 2.5;
   double nlos_downweight_sigma = 1.5;
+  // Ranges flagged likely NLOS by rx - first-path power, and the range bias: as ips-uwb-twr's
+  // settings of the same names (estimators.uwb_twr's unless estimators.fuse says).
+  double nlos_power_db = 10.0;
+  double nlos_power_var_scale = 10.0;
+  double range_bias_m = 0.0;
+  double range_bias_per_m = 0.0;
   double accel_psd = 0.5;         // constant-velocity process noise, (m/s^2)^2/Hz
   DisplacementSource displacement = DisplacementSource::kAuto;  // auto: the first one heard
   bool gyro_turns = true;  // IMU gyros turn the velocity between displacements
@@ -96,6 +102,7 @@ struct FuseStats {
   int64_t messages_in = 0;
   int64_t ranges_used = 0;
   int64_t ranges_rejected = 0;
+  int64_t ranges_nlos_power = 0;  // used ranges flagged likely NLOS by rx - fp power
   int64_t tdoa_epochs_used = 0;
   int64_t tdoa_epochs_rejected = 0;
   int64_t tdoa_differences_used = 0;
@@ -200,6 +207,7 @@ class FuseEstimator {
     Eigen::Vector3d vec = Eigen::Vector3d::Zero();  // position, or displacement
     Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
     bool horizontal_only = false;
+    bool nlos_power = false;  // range: likely NLOS by rx - first-path power
     std::variant<std::monostate, TdoaArrivals, Angles> group;  // a blink's arrivals, or angles
     uint32_t source = 0;
     std::string pose_kind;

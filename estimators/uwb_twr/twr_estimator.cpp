@@ -17,7 +17,8 @@ TwrParams parse_twr_params(const YamlField& s) {
                 "nlos_downweight_sigma",
                 "epoch_window_s", "init_velocity_sigma_mps", "reinit_after_rejections",
                 "max_coast_s", "publish_period_s", "reorder_tolerance_s", "max_range_m",
-                "max_tags", "learn_noise"});
+                "max_tags", "learn_noise", "nlos_power_db", "nlos_power_var_scale",
+                "range_bias_m", "range_bias_per_m"});
   // Every parameter is bounded, not just positive: a SITE message on the bus is outside input.
   auto positive = [&](const char* key, double& v) {
     v = s.get_double(key, v);
@@ -46,6 +47,11 @@ TwrParams parse_twr_params(const YamlField& s) {
   if (p.reinit_after_rejections < 1 || p.reinit_after_rejections > 1000000)
     s["reinit_after_rejections"].fail("must be in [1, 1000000]");
   p.learn_noise = s.get_bool("learn_noise", p.learn_noise);
+  p.nlos_power_db = s.get_double_in("nlos_power_db", p.nlos_power_db, 0, 100);
+  p.nlos_power_var_scale =
+      s.get_double_in("nlos_power_var_scale", p.nlos_power_var_scale, 1, 1e6);
+  p.range_bias_m = s.get_double_in("range_bias_m", p.range_bias_m, -10, 10);
+  p.range_bias_per_m = s.get_double_in("range_bias_per_m", p.range_bias_per_m, -0.1, 0.1);
   p.max_tags = static_cast<int>(s.get_int("max_tags", p.max_tags));
   if (p.max_tags < 1 || p.max_tags > 100000) s["max_tags"].fail("must be in [1, 100000]");
   return p;
@@ -144,7 +150,9 @@ void TwrEstimator::on_range(const uwb_range_t& m) {
   if (t.first_utime == 0) t.first_utime = m.utime;
   t.newest_utime = std::max(t.newest_utime, m.utime);
   t.anchor_heard_utime[anchor_index] = std::max(t.anchor_heard_utime[anchor_index], m.utime);
-  t.recent.push_back({m.utime, m.anchor_id, m.range_m});
+  const double range_m =
+      corrected_range(m.range_m, params_.range_bias_m, params_.range_bias_per_m);
+  t.recent.push_back({m.utime, m.anchor_id, range_m});
   while (t.recent.size() > 64 ||
          (t.recent.size() > 1 &&
           m.utime - t.recent.front().utime > s_to_utime(params_.epoch_window_s)))
@@ -186,8 +194,13 @@ void TwrEstimator::update(Track& t, CvFilter<D>& f, size_t anchor_index, const u
   noise.gate_chi2 = params_.gate_sigma * params_.gate_sigma;
   noise.gate_chi2_positive = params_.nlos_gate_sigma * params_.nlos_gate_sigma;
   noise.downweight_sigma = params_.nlos_downweight_sigma;
-  const RangeUpdate r = range_update<D>(f, site_->anchors[anchor_index].position, t.height_m,
-                                        m.range_m, noise);
+  // Likely NLOS by the receiver's own powers: trusted less, whatever its innovation says.
+  const bool nlos_power =
+      likely_nlos_by_power(m.rx_power_dbm, m.fp_power_dbm, params_.nlos_power_db);
+  if (nlos_power) noise.r_var *= params_.nlos_power_var_scale;
+  const RangeUpdate r = range_update<D>(
+      f, site_->anchors[anchor_index].position, t.height_m,
+      corrected_range(m.range_m, params_.range_bias_m, params_.range_bias_per_m), noise);
   consistency_.add_scalar("RANGE", anchor_id, utime_to_s(m.utime), r.innovation_m, r.hph, r_cfg,
                           !r.accepted, range_setting_);
   if (!r.accepted) {
@@ -204,6 +217,7 @@ void TwrEstimator::update(Track& t, CvFilter<D>& f, size_t anchor_index, const u
   }
   t.anchor_rejections[anchor_index] = 0;
   if (r.downweighted) ++stats_.downweighted;
+  if (nlos_power) ++stats_.nlos_power;
   ++stats_.ranges_used;
   t.consecutive_rejections = 0;
   t.last_accept_utime = std::max(t.last_accept_utime, m.utime);

@@ -50,6 +50,15 @@ struct TwrParams {
   // Learn each anchor's range noise from its innovations (core/consistency.hpp), within
   // [0.5, 10] x range_sigma_m.
   bool learn_noise = true;
+  // NLOS by the receiver's powers (models/uwb_range.hpp): a range whose rx_power_dbm -
+  // fp_power_dbm exceeds nlos_power_db (Decawave APS006: > 10 dB likely NLOS) gets its variance
+  // multiplied by nlos_power_var_scale. 0 turns the indicator off.
+  double nlos_power_db = 10.0;
+  double nlos_power_var_scale = 10.0;
+  // Range bias removed before use: range - (range_bias_m + range_bias_per_m * range). Off (0) by
+  // default: the bias is the device's (docs/real-data.md, uwb-cucudasluv static ranges).
+  double range_bias_m = 0.0;
+  double range_bias_per_m = 0.0;
 };
 
 // Reads `estimators.uwb_twr` of the site; throws ConfigError on a bad value.
@@ -60,6 +69,7 @@ struct TwrStats {
   int64_t ranges_used = 0;
   int64_t rejected_gate = 0;
   int64_t downweighted = 0;            // accepted, with the variance inflated (long: NLOS?)
+  int64_t nlos_power = 0;              // used ranges flagged likely NLOS by rx - fp power
   int64_t dropped_unknown_anchor = 0;  // anchor not in the site or disabled
   int64_t dropped_no_anchors = 0;      // the site has no enabled uwb anchor at all
   int64_t dropped_no_site = 0;

@@ -205,6 +205,56 @@ TEST(FuseEstimator, StartsFromRangesWithoutDeadReckoningAndFromTheSitesStartPose
   }
 }
 
+// Issue 22: a range whose rx - first-path power exceeds nlos_power_db (APS006: > 10 dB likely
+// NLOS) pulls the estimate less and is counted; estimators.uwb_twr's setting is the default, 0
+// turns it off. The standing tag at the origin gets one range 0.3 m long from A1.
+TEST(FuseEstimator, RangesWithALargeRxMinusFirstPathPowerGetLessWeightAndAreCounted) {
+  auto pull = [](const std::string& twr, double rx, double fp, int64_t* flagged) {
+    const Site site = parse_site_text(
+        "name: t\nanchors:\n"
+        "  - {id: A1, position: [-6, 2, 2.0]}\n  - {id: A2, position: [12, 2, 2.5]}\n"
+        "  - {id: A3, position: [-7, 20, 2.2]}\n  - {id: A4, position: [8, 25, 2.4]}\n"
+        "tags: [{id: T1, height_m: 0.1}]\nestimators:\n"
+        "  fuse: {nlos_gate_sigma: 100, nlos_downweight_sigma: 1000, learn_noise: false}\n"
+        "  uwb_twr: {range_sigma_m: 0.1" + twr + "}\n",
+        "test site");
+    FuseEstimator est([](const pose_t&) {});
+    est.set_site(site);
+    for (const auto& i : inputs(site, 2.5, 0.0, 0.0, 1))  // standing at the origin
+      if (i.kind == 0) feed(est, i);
+    uwb_range_t r{};
+    r.utime = kT0 + s_to_utime(2.55);
+    r.tag_id = "T1";
+    r.anchor_id = "A1";
+    r.range_m = (Eigen::Vector3d(0, 0, 0.1) - site.anchors[0].position).norm() + 0.3;
+    r.rx_power_dbm = static_cast<float>(rx);
+    r.fp_power_dbm = static_cast<float>(fp);
+    est.on_range(r);
+    r.utime += 100'000;
+    r.anchor_id = "A2";
+    r.range_m = (Eigen::Vector3d(0, 0, 0.1) - site.anchors[1].position).norm();
+    r.rx_power_dbm = r.fp_power_dbm = NAN;
+    est.on_range(r);
+    *flagged = est.stats().ranges_nlos_power;
+    const auto f = est.filter("T1");
+    EXPECT_TRUE(f);
+    return f ? f->x.head<2>().norm() : 0.0;
+  };
+  int64_t n_nlos = 0, n_los = 0, n_none = 0, n_off = 0;
+  const double nlos = pull("", -80.0, -95.0, &n_nlos);
+  const double los = pull("", -80.0, -83.0, &n_los);
+  const double none = pull("", kNaN, kNaN, &n_none);
+  const double off = pull(", nlos_power_db: 0", -80.0, -95.0, &n_off);
+  EXPECT_EQ(n_nlos, 1);
+  EXPECT_EQ(n_los, 0);
+  EXPECT_EQ(n_none, 0);
+  EXPECT_EQ(n_off, 0);
+  EXPECT_GT(los, 0.02);
+  EXPECT_NEAR(los, none, 1e-12);
+  EXPECT_NEAR(los, off, 1e-12);
+  EXPECT_LT(nlos, 0.5 * los);
+}
+
 TEST(FuseEstimator, HeightsFromAltitudeAndLoosePoses) {
   FuseEstimator est([](const pose_t&) {});
   est.set_site(site_with("{id: T1}"));  // 3D

@@ -22,6 +22,22 @@ struct RangeNoise {
   double downweight_sigma = kNoGate;     // Huber threshold for positive innovations; inf: off
 };
 
+// The receiver's own NLOS indicator: the total received power minus the first path's power
+// (DW1000: RX_POWER and FP_POWER, dBm). Decawave APS006 part 3 ("NLOS identification"): a
+// difference below 6 dB means the channel is likely LOS, above 10 dB likely NLOS (the first
+// path is weak against the multipath energy). Only when both powers are finite and the
+// threshold is on (> 0): a range without powers is never flagged.
+inline bool likely_nlos_by_power(double rx_power_dbm, double fp_power_dbm, double threshold_db) {
+  return threshold_db > 0 && std::isfinite(rx_power_dbm) && std::isfinite(fp_power_dbm) &&
+         rx_power_dbm - fp_power_dbm > threshold_db;
+}
+
+// A range corrected for a known bias: range - (bias_m + bias_per_m * range). Both 0 by default
+// (the bias is the device's and its antenna delay's, see docs/real-data.md).
+inline double corrected_range(double range_m, double bias_m, double bias_per_m) {
+  return range_m - (bias_m + bias_per_m * range_m);
+}
+
 struct RangeUpdate {
   bool accepted = false;
   bool downweighted = false;
