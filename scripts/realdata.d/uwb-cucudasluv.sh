@@ -12,7 +12,8 @@
 # it have a median of a few cm), and so are the authors' LS.csv and ESKF.csv. Scored 2D (the RTK z
 # is relative to the start, the tag's height is not given). Rows: uwb_twr (POSE_UWB), fuse
 # (POSE_FUSED) when it produced poses, and the authors' own LS and ESKF outputs scored by ips-eval
-# as a check of the chain (their RMSD_results.txt figures are the baseline column).
+# as a check of the chain (their RMSD_results.txt figures are the baseline column). Then the
+# static ranges' error against the known distance, LOS and NLOS (rows "static LOS/NLOS", below).
 # Usage: uwb-cucudasluv.sh <realdata-folder> <work-dir> <bin-dir>
 set -euo pipefail
 DATA=$1 WORK=$2 BIN=$3
@@ -68,3 +69,67 @@ PY
 done
 [ "$cases" -gt 0 ] || { say "no dynamic case found under $DATA/Dynamic_measurements"; exit 1; }
 say "$cases cases"
+
+# Static ranges (Static_measurements/{LOS,NLOS}/height_H cm/Dm.csv, the file name the true
+# distance): each file through the project's own input path,
+#   ips-import ranges Dm.csv --tag T1 --out s.lcm; ips-export s.lcm --format csv
+# then the range error (range - D) per row: N, RMSE (rmse_h_m column), p95 / median / max of
+# |error|, and under "other" the mean error and its std, a least-squares line error = a + b*D,
+# and the NLOS indicator's hit rate: the share of ranges with rx - fp power > 10 dB
+# (ips-uwb-twr's nlos_power_db, Decawave APS006's "likely NLOS") and > 6 dB ("not clearly LOS").
+for env in LOS NLOS; do
+  sdir="$DATA/Static_measurements/$env"
+  [ -d "$sdir" ] || { say "static $env: no $sdir, skipped"; continue; }
+  errs="$WORK/static_${env}_errors.tsv"
+  : >"$errs"
+  files=0
+  for f in "$sdir"/height_*/*m.csv; do
+    [ -f "$f" ] || continue
+    d=$(basename "$f" .csv); d=${d%m}
+    # A few files hold the header only (the recording failed): said, skipped.
+    if ! awk -F, 'NR > 1 && NF >= 21 && $1 ~ /^[0-9]/ && $5 ~ /^[0-9]/ { found = 1; exit }
+                 END { exit !found }' "$f"; then
+      say "static $env: ${f#"$sdir"/}: no data rows, skipped"
+      continue
+    fi
+    s="$WORK/static_${env}.lcm"
+    "$BIN/ips-import" ranges "$f" --tag T1 --out "$s" 2>>"$WORK/static_import.err" ||
+      { say "static $env: failed: ips-import ranges $f: $(tail -1 "$WORK/static_import.err")"; exit 1; }
+    rm -rf "$WORK/static_export"
+    "$BIN/ips-export" "$s" --out "$WORK/static_export" --format csv 2>>"$WORK/static_import.err" >&2 ||
+      { say "static $env: failed: ips-export $s"; exit 1; }
+    # utime_us,source,tag_id,anchor_id,range_m,rx_power_dbm,fp_power_dbm,quality,seq
+    awk -F, -v d="$d" 'NR > 1 { print d "\t" ($5 - d) "\t" ($6 - $7) }' \
+      "$WORK/static_export/UWB_RANGE.csv" >>"$errs"
+    files=$((files + 1))
+  done
+  [ "$files" -gt 0 ] || { say "static $env: no Dm.csv files"; continue; }
+  python3 - "$errs" "$env" "$files" <<'PY'
+import math, sys
+d, e, gap = [], [], []
+for line in open(sys.argv[1]):
+    a, b, c = line.split("\t")
+    d.append(float(a)); e.append(float(b))
+    c = c.strip().lower()
+    gap.append(float(c) if c not in ("nan", "-nan", "") else math.nan)
+n = len(e)
+if n == 0:
+    sys.exit(0)
+mean = sum(e) / n
+std = math.sqrt(sum((x - mean) ** 2 for x in e) / n)
+rmse = math.sqrt(sum(x * x for x in e) / n)
+ab = sorted(abs(x) for x in e)
+md = sum(d) / n
+sxx = sum((x - md) ** 2 for x in d)
+b = sum((x - md) * (y - mean) for x, y in zip(d, e)) / sxx if sxx > 0 else 0.0
+a = mean - b * md
+res = math.sqrt(sum((y - a - b * x) ** 2 for x, y in zip(d, e)) / n)
+fin = [g for g in gap if math.isfinite(g)]
+share = lambda t: 100.0 * sum(1 for g in fin if g > t) / len(fin) if fin else math.nan
+other = ("mean error %+.3f m, std %.3f m; fit %+.3f %+.4f*D m (residual std %.3f m), D %g-%g m, %s files; "
+         "rx-fp > 10 dB %.2f %%, > 6 dB %.2f %% of %d with powers") % (
+    mean, std, a, b, res, min(d), max(d), sys.argv[3], share(10), share(6), len(fin))
+print("\t".join(["uwb-cucudasluv", "static " + sys.argv[2], "ranges (range - D)", str(n), "%.3f" % rmse,
+                 "%.3f" % ab[min(n - 1, int(0.95 * n))], "%.3f" % ab[n // 2], "%.3f" % ab[-1], other, "-"]))
+PY
+done
