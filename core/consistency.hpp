@@ -252,9 +252,9 @@ class ConsistencyMonitor {
     if (v.size() % 2 == 0) m = 0.5 * (m + *std::max_element(v.begin(), mid));
     return m;
   }
-  void relearn(Channel& c) {
-    c.since_learn = 0;
-    if (c.window.size() < opts_.min_samples) return;
+  // The window's measurement variance (median r^2 over the chi-square(1) median, less the median
+  // H P H') over the configured one.
+  static double noise_scale(const Channel& c) {
     std::vector<double> r2, hph;
     r2.reserve(c.window.size());
     hph.reserve(c.window.size());
@@ -262,8 +262,12 @@ class ConsistencyMonitor {
       r2.push_back(s.r2);
       hph.push_back(s.hph);
     }
-    const double var = median(r2) / chi2_median(1) - median(hph);
-    const double scale = var / c.r_cfg;
+    return (median(r2) / chi2_median(1) - median(hph)) / c.r_cfg;
+  }
+  void relearn(Channel& c) {
+    c.since_learn = 0;
+    if (c.window.size() < opts_.min_samples) return;
+    const double scale = noise_scale(c);
     c.at_bound = !(scale < opts_.learn_max);
     // Below learn_deadband the configured value stands: an estimate from a few dozen samples
     // scatters by tens of percent, and a consistent channel must not jitter.
@@ -288,6 +292,10 @@ class ConsistencyMonitor {
     }
     v.gated_share = static_cast<double>(gated) / static_cast<double>(v.n);
     v.ratio = median(nis) / chi2_median(c.dof);
+    // A scalar channel's own noise against the configured one, whatever the filter's confidence:
+    // once a learned variance widens the filter, H P H' grows and the NIS alone understates
+    // how far off the setting is.
+    if (c.scalar && v.n >= opts_.min_samples) v.ratio = std::max(v.ratio, noise_scale(c));
     if (v.n < opts_.min_samples) return v;
     v.state = v.ratio > opts_.too_noisy  ? State::kNoisy
               : v.ratio < opts_.too_quiet ? State::kQuiet

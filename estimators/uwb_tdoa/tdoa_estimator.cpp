@@ -140,7 +140,9 @@ void TdoaEstimator::set_site(const Site& site) {
   consistency_ = ConsistencyMonitor(co);
   consistency_.monitor_only("TDOA");
   clocks_.set_consistency(&consistency_);
-  rx_setting_ = setting_text("rx_sigma_ns", params_.rx_sigma_ns);
+  // A difference's variance is the receptions' and the clocks' (sync_sigma_ns): either may be off.
+  rx_setting_ = setting_text("rx_sigma_ns", params_.rx_sigma_ns) + " or " +
+                setting_text("sync_sigma_ns", params_.clock.sync_sigma_ns);
   site_ = site;
   clocks_.configure(params_.clock, *site_);
   reference_anchor_ = params_.reference == ReferenceChoice::kAnchor

@@ -5,6 +5,8 @@
 #include <gtest/gtest.h>
 
 #include <functional>
+#include <initializer_list>
+#include <utility>
 #include <ips/baro_t.hpp>
 #include <ips/ble_aoa_t.hpp>
 #include <ips/imu_t.hpp>
@@ -13,6 +15,7 @@
 #include <ips/uwb_range_t.hpp>
 #include <ips/uwb_rx_t.hpp>
 
+#include "core/site.hpp"
 #include "drivers/sim/simulator.hpp"
 
 namespace ips::test {
@@ -55,6 +58,16 @@ inline void run_simulated(const sim::Scenario& sc, uint64_t seed, const SimHandl
     else if (e.kind == "BARO") hand_over(e, h.baro);
     else if (e.kind == "INS_MODULE") hand_over(e, h.ins_module);
   }
+}
+
+// The simulator's site with estimator parameters set: estimators.<estimator>.<key> = value, each
+// value YAML ("0.01", "false"); a deliberately wrong noise setting, say.
+inline Site site_with_settings(
+    const site_t& m, const std::string& estimator,
+    std::initializer_list<std::pair<std::string, std::string>> settings) {
+  YAML::Node root = YAML::Load(m.site_yaml);
+  for (const auto& [key, value] : settings) root["estimators"][estimator][key] = YAML::Load(value);
+  return parse_site_text(YAML::Dump(root), "test site");
 }
 
 }  // namespace ips::test

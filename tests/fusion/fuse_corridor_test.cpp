@@ -88,3 +88,42 @@ INSTANTIATE_TEST_SUITE_P(
 
 }  // namespace
 }  // namespace ips::fusion
+
+namespace ips::fusion {
+namespace {
+
+// Issue 22: ips-fuse given a range_sigma_m 10x too small (0.01 m against the simulator's 0.10 m)
+// names it by anchor within 10 s of data, learns the anchors' noise and keeps its accuracy; the
+// right setting raises nothing.
+TEST(FuseConsistency, ARangeSigmaTenTimesTooSmallIsNamedWithinTenSeconds) {
+  for (const char* sigma : {"0.01", "0.1"}) {
+    SCOPED_TRACE(std::string("range_sigma_m ") + sigma);
+    sim::Scenario sc = sim::load_scenario("lab");
+    sc.duration_s = 10;
+    Site site = sc.site;
+    site.estimators = parse_yaml_text(std::string("fuse: {range_sigma_m: ") + sigma + "}", "params");
+    eval::Evaluator ev;
+    FuseEstimator est([&](const pose_t& p) { ev.add_estimate("POSE_FUSED", p); });
+    est.set_site(site);
+    test::run_simulated(sc, 1,
+                        {.truth = [&](const pose_t& m) { ev.add_truth(m); },
+                         .uwb_range = [&](const uwb_range_t& m) { est.on_range(m); }});
+    const std::string problems = est.consistency().problems();
+    if (std::string(sigma) == "0.1") {
+      EXPECT_EQ(problems, "");
+      continue;
+    }
+    for (const char* anchor : {"A1", "A2", "A3", "A4"})
+      EXPECT_NE(problems.find(std::string("RANGE ") + anchor + ": innovations "), std::string::npos)
+          << problems;
+    EXPECT_NE(problems.find("range_sigma_m 0.01 looks too small for this anchor"), std::string::npos)
+        << problems;
+    EXPECT_FALSE(est.consistency().degraded()) << problems;  // learned within its bounds
+    const auto rows = ev.rows();
+    ASSERT_EQ(rows.size(), 1u);
+    EXPECT_LE(rows[0].rmse_h, 0.15);
+  }
+}
+
+}  // namespace
+}  // namespace ips::fusion
