@@ -604,6 +604,7 @@ DropReasons FuseEstimator::drop_reasons() const {
   DropReasons d;
   d.add(DropReason::kNoSite, s.dropped_no_site);
   d.add(DropReason::kInvalid, s.dropped_invalid);
+  d.add(DropReason::kNoReference, s.dropped_relative_height);
   d.add(DropReason::kUnknownAnchor, s.dropped_unknown_anchor);
   d.add(DropReason::kLate, s.dropped_late);
   d.add(DropReason::kTimeJump, guard_.dropped());
@@ -792,6 +793,12 @@ void FuseEstimator::on_altitude(const altitude_t& m) {
   if (!std::isfinite(m.height_m) || std::abs(m.height_m) > kMaxCoordinateM ||
       !(m.height_std_m > 0) || !std::isfinite(m.height_std_m)) {
     ++stats_.dropped_invalid;
+    return;
+  }
+  // A single barometer's heights are relative to its first readings (ips-altitude's relative
+  // mode, source ".../relative"), not the site's z: not fused as absolute heights.
+  if (m.source.size() >= 9 && m.source.compare(m.source.size() - 9, 9, "/relative") == 0) {
+    ++stats_.dropped_relative_height;
     return;
   }
   Measurement h;

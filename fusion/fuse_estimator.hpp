@@ -116,6 +116,7 @@ struct FuseStats {
   int64_t poses_used = 0;
   int64_t poses_rejected = 0;
   int64_t dropped_invalid = 0;
+  int64_t dropped_relative_height = 0;  // ALTITUDE relative to a lone barometer's start
   int64_t dropped_unknown_anchor = 0;
   int64_t dropped_late = 0;          // more than max_delay_s behind the tag's newest
   int64_t dropped_no_site = 0;

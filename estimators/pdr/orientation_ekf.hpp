@@ -27,7 +27,7 @@ struct EarthField {
 };
 
 struct OrientationNoise {
-  double gyro_noise_rad_s = 0.01;     // white noise density, rad/s/sqrt(Hz)
+  double gyro_noise_rad_s = 0.003;    // white noise density, rad/s/sqrt(Hz)
   double bias_walk_rad_s2 = 1e-4;     // gyro bias random walk, rad/s^2/sqrt(Hz)
   double gravity_sigma_still = 0.02;  // unit-vector noise of a/|a| when still
   double gravity_sigma_moving = 0.5;  // ... while walking

@@ -35,7 +35,8 @@ PdrParams parse_pdr_params(const YamlField& s) {
                 "mag_heading_sigma_deg", "phone_yaw_offset_deg", "gyro_noise_rad_s",
                 "gyro_bias_walk_rad_s2", "init_still_s", "max_align_s", "still_gyro_rad_s",
                 "still_accel_mps2", "still_window_s", "step_length_sigma_m", "max_gap_s",
-                "max_tags"});
+                "max_tags", "learn_noise"});
+  p.learn_noise = s.get_bool("learn_noise", p.learn_noise);
   auto bounded = [&](const char* key, double& v, double lo, double hi) {
     v = s.get_double(key, v);
     if (!(v >= lo && v <= hi))
@@ -115,8 +116,12 @@ void PdrEstimator::set_site(const Site& site) {
   params_ = parse_pdr_params(site.estimator_params("pdr"));
   site_ = site;
   tracks_.clear();
-  consistency_.clear();
-  consistency_.monitor_only("MAG");
+  // The magnetometer's heading noise is learned from its innovations (never below
+  // mag_heading_sigma_deg): a building whose field is disturbed more than the setting says gets
+  // less say over the heading.
+  ConsistencyOptions co;
+  co.learn = params_.learn_noise;
+  consistency_ = ConsistencyMonitor(co);
   char setting[64];
   std::snprintf(setting, sizeof setting, "mag_heading_sigma_deg %g",
                 rad_to_deg(params_.noise.mag_heading_sigma_rad));
@@ -367,10 +372,11 @@ void PdrEstimator::update_mag(Track& t, const std::string& tag_id, utime_t now) 
       utime_to_s(now - t.last_mag_update) < params_.mag_update_period_s)
     return;
   t.last_mag_update = now;
+  const double sigma_cfg = params_.noise.mag_heading_sigma_rad;
   const MagUpdate u = t.ekf.update_mag_heading_world(
       t.sum_mw / t.n_mw, params_.field, params_.mag_norm_tolerance,
-      deg_to_rad(params_.mag_dip_tolerance_deg), params_.noise.mag_heading_sigma_rad,
-      params_.mag_gate_chi2);
+      deg_to_rad(params_.mag_dip_tolerance_deg),
+      std::sqrt(consistency_.variance("MAG", tag_id, sigma_cfg * sigma_cfg)), params_.mag_gate_chi2);
   t.sum_mw.setZero();
   t.n_mw = 0;
   t.mag_distance_m = 0;

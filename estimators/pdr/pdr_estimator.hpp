@@ -58,6 +58,8 @@ struct PdrParams {
   double mag_update_distance_m = 2.0;    // ... and per this distance walked (disturbances are
                                          // a function of place: correlated over metres)
   double mag_gate_chi2 = kNoGate;        // innovation gate of the heading update
+  bool learn_noise = true;               // learn the magnetometer's heading noise (never below
+                                         // mag_heading_sigma_deg; core/consistency.hpp)
   double phone_yaw_offset_deg = 0.0;     // phone's top relative to the walking direction, CCW
   double gravity_mps2 = 9.81;            // only to recognise rest before the phone's own is known
   double gravity_window_s = 10.0;        // time constant of the phone's own gravity estimate
@@ -128,7 +130,8 @@ class PdrEstimator {
   const PdrParams& params() const { return params_; }
   // The magnetometer's heading innovations against mag_heading_sigma_deg, per device ("MAG"),
   // checked every mag_update_period_s whether or not used (used once per
-  // mag_update_distance_m); refused by mag_gate_chi2: gated. Checked only, never learned.
+  // mag_update_distance_m); refused by mag_gate_chi2: gated. Learned (learn_noise), never below
+  // mag_heading_sigma_deg.
   const ConsistencyMonitor& consistency() const { return consistency_; }
   // Devices seen without a gyroscope (steps only, heading unknown), for HEALTH.
   std::vector<std::string> accel_only_devices() const;

@@ -279,6 +279,21 @@ TEST(FuseEstimator, HeightsFromAltitudeAndLoosePoses) {
   ASSERT_TRUE(est.filter("T1"));
   EXPECT_NEAR(est.filter("T1")->x(2), 1.07, 0.01);
   EXPECT_EQ(est.stats().heights_used, 50);
+  // A lone barometer's heights are relative to its first readings (ips-altitude's relative
+  // mode): not the site's z, so not fused, and counted.
+  for (int k = 51; k <= 60; ++k) {
+    altitude_t a{};
+    a.utime = kT0 + k * 100000;
+    a.tag_id = "T1";
+    a.source = "altitude/relative";
+    a.height_m = 5.0;
+    a.height_std_m = 0.03;
+    est.on_altitude(a);
+  }
+  EXPECT_EQ(est.stats().heights_used, 50);
+  EXPECT_EQ(est.stats().dropped_relative_height, 10);
+  EXPECT_EQ(est.drop_reasons().count(DropReason::kNoReference), 10);
+  EXPECT_NEAR(est.filter("T1")->x(2), 1.07, 0.01);
 }
 
 TEST(FuseEstimator, BadInputIsCounted) {

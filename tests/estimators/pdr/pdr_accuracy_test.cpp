@@ -112,11 +112,12 @@ TEST(PdrAccuracy, Loop840StepsDistanceAndClosure) {
 // walk-square's POSE_PDR horizontal RMSE on seeds 1 to 5. Before issue 22 (magnetometer
 // heading updates twice a second, also at rest; TRIAD start heading from the local field):
 // 2.88 / 9.50 / 4.53 / 2.34 / 6.31 m. With the site's start heading and one heading update per
-// 2 m walked: 2.40 / 5.82 / 3.02 / 1.69 / 3.39 m. Issue 22 asks for 2 m on every seed: not met
-// yet (the remaining error is the building's field pulling the heading); the bound guards the
-// gain.
+// 2 m walked: 2.40 / 5.82 / 3.02 / 1.69 / 3.39 m. With the magnetometer's heading noise learned
+// from its innovations and gyro_noise_rad_s 0.003 (was 0.01, 60x the simulated gyro's):
+// 2.45 / 2.92 / 3.04 / 1.52 / 2.62 m. Issue 22 asks for 2 m on every seed: not met yet (the
+// remaining error is the building's field pulling the heading); the bound guards the gain.
 TEST(PdrAccuracy, WalkSquareRmse) {
-  const double bound_m[] = {2.6, 6.3, 3.3, 1.9, 3.7};
+  const double bound_m[] = {2.7, 3.2, 3.3, 1.7, 2.9};
   for (uint64_t seed : {1, 2, 3, 4, 5}) {
     const PdrRun r = run("walk-square", seed);
     print("walk-square seed " + std::to_string(seed), r, r.path_m / 0.72);

@@ -471,7 +471,9 @@ TEST(ReplayHostAccounts, NanGyroIsInvalidForPdrAndIns) {
     m.device_id = "T1";
     m.device_utime = -1;
     m.accel[2] = 9.81;
-    m.gyro[0] = i < 30 ? std::nan("") : 0.0;  // 30 samples with a NaN gyroscope
+    // 30 samples with a NaN gyroscope, after some with one (a device whose first samples have
+    // none is an accelerometer-only phone to ips-pdr: its steps are counted without heading).
+    m.gyro[0] = i >= 10 && i < 40 ? std::nan("") : 0.0;
     for (double& b : m.mag_ut) b = std::nan("");
     events.push_back(event("IMU", m.utime, m));
   }
