@@ -96,6 +96,7 @@ void InsEstimator::set_site(const Site& site) {
   site_ = site;
   tracks_.clear();
   consistency_ = ConsistencyMonitor();
+  zupt_setting_ = setting_text("zupt_sigma_mps", params_.zupt_sigma_mps);
 }
 
 std::optional<InsTrackSummary> InsEstimator::track(const std::string& tag_id) const {
@@ -274,7 +275,7 @@ void InsEstimator::navigate(Track& t, const imu_t& m, const Eigen::Vector3d& f,
       if (m.utime - t.last_nis_utime >= s_to_utime(kZuptNisPeriodS)) {
         t.last_nis_utime = m.utime;
         consistency_.add_nis("ZUPT", m.device_id, utime_to_s(m.utime), r.nis, 3, false,
-                             "zupt_sigma_mps " + format_setting(params_.zupt_sigma_mps));
+                             zupt_setting_);
       }
       if (r.accepted) {
         ++stats_.zupts;

@@ -184,6 +184,7 @@ class InsEstimator {
   InsStats stats_;
   TimeGuard guard_;  // per sender (core/time_guard.hpp)
   ConsistencyMonitor consistency_;
+  std::string zupt_setting_;  // "zupt_sigma_mps 0.01", as the monitor names it
 };
 
 }  // namespace ips::ins

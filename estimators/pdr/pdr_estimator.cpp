@@ -122,10 +122,8 @@ void PdrEstimator::set_site(const Site& site) {
   ConsistencyOptions co;
   co.learn = params_.learn_noise;
   consistency_ = ConsistencyMonitor(co);
-  char setting[64];
-  std::snprintf(setting, sizeof setting, "mag_heading_sigma_deg %g",
-                rad_to_deg(params_.noise.mag_heading_sigma_rad));
-  mag_setting_ = setting;
+  mag_setting_ =
+      setting_text("mag_heading_sigma_deg", rad_to_deg(params_.noise.mag_heading_sigma_rad));
 }
 
 void PdrEstimator::on_imu(const imu_t& m) {
@@ -396,16 +394,16 @@ void PdrEstimator::emit_step(Track& t, const std::string& tag_id, const Detected
   const double sl = step_length(params_.length, step);
   ++t.steps;
   ++stats_.steps;
+  step_t s;
+  s.utime = step.utime;
+  s.source = source_;
+  s.tag_id = tag_id;
+  s.index = t.steps;
+  s.length_m = sl;
+  s.heading_rad = std::isfinite(theta) ? theta : kNaN;
+  s.cadence_hz = step.interval_s > 0 ? 1.0 / step.interval_s : 0.0;
   if (!std::isfinite(theta)) {  // heading unknown: the step alone, no position
     ++stats_.steps_heading_unknown;
-    step_t s;
-    s.utime = step.utime;
-    s.source = source_;
-    s.tag_id = tag_id;
-    s.index = t.steps;
-    s.length_m = sl;
-    s.heading_rad = kNaN;
-    s.cadence_hz = step.interval_s > 0 ? 1.0 / step.interval_s : 0.0;
     step_sink_(s);
     return;
   }
@@ -417,15 +415,6 @@ void PdrEstimator::emit_step(Track& t, const std::string& tag_id, const Detected
   const double across = sl * sl * std::max(t.ekf.yaw_variance(), 0.0);
   const Eigen::Vector2d perp(-dir.y(), dir.x());
   t.cov += along * dir * dir.transpose() + across * perp * perp.transpose();
-
-  step_t s;
-  s.utime = step.utime;
-  s.source = source_;
-  s.tag_id = tag_id;
-  s.index = t.steps;
-  s.length_m = sl;
-  s.heading_rad = theta;
-  s.cadence_hz = step.interval_s > 0 ? 1.0 / step.interval_s : 0.0;
   step_sink_(s);
 
   pose_t p;
