@@ -754,7 +754,7 @@ void FuseEstimator::on_step(const step_t& m) {
   Track* t = track_for(m.tag_id, m.utime, [this, m] { on_step(m); });
   if (!t) return;
   if (!std::isfinite(m.length_m) || m.length_m < 0 || m.length_m > 5 ||
-      !std::isfinite(m.heading_rad)) {
+      !m.heading_known || !std::isfinite(m.heading_rad)) {
     ++stats_.dropped_invalid;
     return;
   }
@@ -796,8 +796,8 @@ void FuseEstimator::on_altitude(const altitude_t& m) {
     return;
   }
   // A single barometer's heights are relative to its first readings (ips-altitude's relative
-  // mode, source ".../relative"), not the site's z: not fused as absolute heights.
-  if (m.source.size() >= 9 && m.source.compare(m.source.size() - 9, 9, "/relative") == 0) {
+  // mode, altitude_t.relative), not the site's z: not fused as absolute heights.
+  if (m.relative) {
     ++stats_.dropped_relative_height;
     return;
   }

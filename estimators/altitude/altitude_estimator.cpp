@@ -456,8 +456,8 @@ void AltitudeEstimator::use(const std::string& tag_id, Track& t, const TagReadin
 void AltitudeEstimator::publish(const std::string& tag_id, Track& t, utime_t utime) {
   altitude_t a;
   a.utime = utime;
-  // altitude_t has no field for it yet: a relative height says so in its source.
-  a.source = relative_ ? source_ + "/relative" : source_;
+  a.source = source_;
+  a.relative = relative_;
   a.tag_id = tag_id;
   a.height_m = t.filter.x(0);
   a.height_std_m = std::sqrt(std::max(0.0, t.filter.P(0, 0)) + t.bias_var_m2);

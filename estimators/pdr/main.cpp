@@ -127,21 +127,17 @@ int main(int argc, char** argv) {
     // Samples that went into no step, by reason, in HEALTH (drops, last_error) once a second.
     ips::DropHealth drop_health;
     ips::ConsistencyHealth consistency_health;
-    std::string heading_unknown;  // devices without a gyroscope, as said in HEALTH
+    std::string heading_unknown;  // est.problems() as said in HEALTH
     node.add_timer(1.0, [&] {
       drop_health.report(node, est.drop_reasons());
       consistency_health.report(node, est.consistency());
-      std::string devices;
-      for (const std::string& d : est.accel_only_devices())
-        devices += (devices.empty() ? "" : ", ") + ips::printable(d);
-      if (devices == heading_unknown) return;
-      heading_unknown = devices;
-      if (devices.empty())
+      const std::string problems = est.problems();
+      if (problems == heading_unknown) return;
+      heading_unknown = problems;
+      if (problems.empty())
         node.end_lasting_error("heading");
       else
-        node.report_lasting_error("heading", "no gyroscope on " + devices +
-                                                 ": steps only, heading unknown (STEP "
-                                                 "heading_rad NaN), no POSE_PDR");
+        node.report_lasting_error("heading", problems);
     });
     return node.run();
   });

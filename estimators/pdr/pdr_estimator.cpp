@@ -5,6 +5,7 @@
 #include <limits>
 
 #include "core/geometry.hpp"
+#include "core/text_escape.hpp"
 
 namespace ips::pdr {
 
@@ -251,6 +252,15 @@ std::vector<std::string> PdrEstimator::accel_only_devices() const {
   return out;
 }
 
+std::string PdrEstimator::problems() const {
+  std::string devices;
+  for (const std::string& d : accel_only_devices())
+    devices += (devices.empty() ? "" : ", ") + printable(d);
+  if (devices.empty()) return {};
+  return "no gyroscope on " + devices +
+         ": steps only, heading unknown (STEP heading_known false), no POSE_PDR";
+}
+
 void PdrEstimator::align(Track& t, const std::string& tag_id, bool rested) {
   // The step filter needs a sample rate well above its cut-off (a Butterworth low-pass exists
   // only below Nyquist); a slower IMU cannot be used: say so and keep waiting.
@@ -400,7 +410,8 @@ void PdrEstimator::emit_step(Track& t, const std::string& tag_id, const Detected
   s.tag_id = tag_id;
   s.index = t.steps;
   s.length_m = sl;
-  s.heading_rad = std::isfinite(theta) ? theta : kNaN;
+  s.heading_known = std::isfinite(theta);
+  s.heading_rad = s.heading_known ? theta : kNaN;
   s.cadence_hz = step.interval_s > 0 ? 1.0 / step.interval_s : 0.0;
   if (!std::isfinite(theta)) {  // heading unknown: the step alone, no position
     ++stats_.steps_heading_unknown;

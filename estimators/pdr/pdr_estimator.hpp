@@ -135,6 +135,10 @@ class PdrEstimator {
   const ConsistencyMonitor& consistency() const { return consistency_; }
   // Devices seen without a gyroscope (steps only, heading unknown), for HEALTH.
   std::vector<std::string> accel_only_devices() const;
+  // What keeps it from placing steps, in words ("" when nothing): "no gyroscope on P1: steps
+  // only, heading unknown (STEP heading_known false), no POSE_PDR". For HEALTH (a lasting error)
+  // and ips-replay.
+  std::string problems() const;
 
  private:
   struct Sample {

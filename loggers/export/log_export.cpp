@@ -104,7 +104,7 @@ void fields(const step_t& m, Fields& f) {
   f = {{"utime_us", m.utime},         {"source", m.source},
        {"tag_id", m.tag_id},          {"index", int64_t{m.index}},
        {"length_m", m.length_m},      {"heading_rad", m.heading_rad},
-       {"cadence_hz", m.cadence_hz}};
+       {"cadence_hz", m.cadence_hz},  {"heading_known", m.heading_known != 0}};
 }
 
 void fields(const altitude_t& m, Fields& f) {
@@ -115,7 +115,8 @@ void fields(const altitude_t& m, Fields& f) {
        {"height_std_m", m.height_std_m},
        {"vertical_speed_mps", m.vertical_speed_mps},
        {"floor", int64_t{m.floor}},
-       {"floor_valid", m.floor_valid != 0}};
+       {"floor_valid", m.floor_valid != 0},
+       {"relative", m.relative != 0}};
 }
 
 void fields(const clock_t& m, Fields& f) {

@@ -112,6 +112,14 @@ int main(int argc, char** argv) {
         spdlog::info("ips-replay: {}: consistency: {}", a.name, a.consistency);
       if (!a.consistency_problems.empty())
         spdlog::warn("ips-replay: {}: at the end: {}", a.name, a.consistency_problems);
+      // An estimator hosted by default that only waited (an INS on a hand-held phone) says why
+      // without a warning; one that estimated, or was asked for, warns.
+      if (!a.problems.empty()) {
+        if (a.silent && !a.warn)
+          spdlog::info("ips-replay: {}: {}", a.name, a.problems);
+        else
+          spdlog::warn("ips-replay: {}: {}", a.name, a.problems);
+      }
     }
     if (!why.empty()) {
       ips::print_fatal("ips-replay", why);

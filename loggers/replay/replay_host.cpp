@@ -331,6 +331,7 @@ std::vector<EstimatorAccount> ReplayHost::accounts() const {
       a.consistency = est.consistency().run_summary();
       a.consistency_problems = est.consistency().problems();
     }
+    if constexpr (requires { est.problems(); }) a.problems = est.problems();
     a.name = name;
     a.inputs = std::move(inputs);
     a.messages_in = counts_[index].in;

@@ -60,6 +60,9 @@ struct EstimatorAccount {
   // run_summary()), and the channels out of line at the end in words; "" when not checked.
   std::string consistency;
   std::string consistency_problems;
+  // What kept it from estimating, in its own words at the end (the estimator's problems():
+  // ips-pdr "no gyroscope on P1: ...", ips-ins "T1: no stance phase ..."); "" when none.
+  std::string problems;
 };
 
 class ReplayHost {

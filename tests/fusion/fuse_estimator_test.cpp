@@ -285,7 +285,8 @@ TEST(FuseEstimator, HeightsFromAltitudeAndLoosePoses) {
     altitude_t a{};
     a.utime = kT0 + k * 100000;
     a.tag_id = "T1";
-    a.source = "altitude/relative";
+    a.source = "altitude";
+    a.relative = true;
     a.height_m = 5.0;
     a.height_std_m = 0.03;
     est.on_altitude(a);

@@ -181,7 +181,8 @@ TEST(AltitudeNoise, ASingleBarometerGivesHeightsRelativeToItsFirstReadings) {
   }
   f.est.finish();
   ASSERT_GT(f.out.size(), 400u);
-  EXPECT_EQ(f.out.front().source, "altitude/relative");
+  EXPECT_EQ(f.out.front().source, "altitude");
+  EXPECT_TRUE(f.out.front().relative);
   EXPECT_NEAR(f.out[100].height_m, 0.0, 0.02);
   EXPECT_NEAR(f.out.back().height_m, 3.0, 0.03);
   // The start level's error and the weather since are in the sigma: it grows with time.

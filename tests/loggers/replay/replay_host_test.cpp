@@ -152,6 +152,7 @@ TEST(ReplayHost, HostsThePdrEstimator) {
       ASSERT_GT(s.decode(out[i].data.data(), 0, static_cast<int>(out[i].data.size())), 0);
       EXPECT_EQ(s.index, steps);
       EXPECT_EQ(s.source, "pdr");
+      EXPECT_TRUE(s.heading_known);
     }
     if (out[i].channel == "POSE_PDR") {
       ++poses;
