@@ -28,7 +28,8 @@ PdrParams parse_pdr_params(const YamlField& s) {
   s.check_keys({"detector", "filter_order", "filter_cutoff_hz", "peak_threshold_mps2",
                 "adaptive_threshold", "adaptive_k", "adaptive_hysteresis_k",
                 "adaptive_floor_mps2", "adaptive_window_s", "gravity_window_s",
-                "zero_crossing_threshold_mps2", "min_step_interval_s", "signal", "step_model",
+                "zero_crossing_threshold_mps2", "min_step_interval_s", "cadence_fill",
+                "cadence_window_s", "cadence_min_corr", "cadence_tolerance", "signal", "step_model",
                 "step_k", "step_k2", "body_height_m", "levi_s0_m", "levi_f0_hz",
                 "levi_m_per_hz", "step_min_m", "step_max_m", "use_magnetometer",
                 "mag_field_ut", "mag_inclination_deg", "mag_declination_deg",
@@ -63,6 +64,10 @@ PdrParams parse_pdr_params(const YamlField& s) {
   bounded("gravity_window_s", p.gravity_window_s, 0.1, 3600);
   bounded("zero_crossing_threshold_mps2", p.detector.zero_crossing_threshold, 0, 50);
   bounded("min_step_interval_s", p.detector.min_step_interval_s, 0.05, 5);
+  p.detector.cadence_fill = s.get_bool("cadence_fill", p.detector.cadence_fill);
+  bounded("cadence_window_s", p.detector.cadence_window_s, 1, 60);
+  bounded("cadence_min_corr", p.detector.cadence_min_corr, 0, 1);
+  bounded("cadence_tolerance", p.detector.cadence_tolerance, 0, 0.5);
   const std::string sig = s.get_string("signal", "vertical");
   if (sig == "vertical") p.signal = StepSignal::kVertical;
   else if (sig == "norm") p.signal = StepSignal::kNorm;
@@ -314,7 +319,8 @@ void PdrEstimator::walk(Track& t, const std::string& tag_id, const Sample& m, do
     // mean takes out what remains).
     t.gravity += std::min(1.0, dt / params_.gravity_window_s) * (a.norm() - t.gravity);
     const auto step = t.detector->add(m.utime, a.norm() - t.gravity);
-    if (step) emit_step(t, tag_id, *step, kNaN);
+    if (step)  // with the step the walk's cadence says the peaks missed (step_detector.hpp)
+      for (const DetectedStep& s : with_missed(*step)) emit_step(t, tag_id, s, kNaN);
     return;
   }
   const Eigen::Vector3d& g = m.g;
@@ -366,7 +372,7 @@ void PdrEstimator::walk(Track& t, const std::string& tag_id, const Sample& m, do
   if (!step) return;
   const double theta = std::atan2(t.sum_sin, t.sum_cos);
   t.sum_cos = t.sum_sin = 0;
-  emit_step(t, tag_id, *step, theta);
+  for (const DetectedStep& s : with_missed(*step)) emit_step(t, tag_id, s, theta);
   if (!replay) update_mag(t, tag_id, m.utime);
 }
 

@@ -16,9 +16,33 @@
 //   - or zero crossing: a step at each upward zero crossing that follows a trough below
 //     -zero_crossing_threshold, at least min_step_interval_s after the previous one (002 gives no
 //     numbers for this detector; the threshold is ours).
+//   The running mean starts at 0, not at the first sample: the signal has gravity removed, and
+//   a walk that starts before the alignment ends replays its first sample mid-swing (a mean
+//   started there biased the threshold for seconds).
 // Each step reports the extremes of the filtered signal since the previous step (a_max, a_min,
 // a_avg: the inputs of the step-length models) and its time.
+//
+// Cadence (adaptive peak detector, cadence_fill): a peak detector misses a step now and then
+// inside a steady walk, and some carrying positions show one clear peak per stride for a while
+// (a swinging arm at the start of a walk: the arm's pendulum swing at half the step frequency
+// dominates the footfalls; the valley between the two steps of a stride is too shallow to re-arm
+// the hysteresis). The walk's own step period P is measured from the autocorrelation of the
+// filtered signal over the last cadence_window_s (resampled at 50 Hz): the shortest lag
+// between min_step_interval_s and max_step_interval_s whose peak is at least 0.85 of the
+// highest (a steady walk correlates as well at two or three steps as at one); when that lag is
+// a stride (two steps that look different, as in a pocket or a swinging arm), its half: the
+// half lag also has a positive autocorrelation peak (>= 0.2), or the recent detected intervals
+// are near it.
+// When a step comes two periods after the previous one (|gap / P - 2| <= cadence_tolerance)
+// and the window is clearly periodic (autocorrelation at P's lag >= cadence_min_corr), the
+// step between them is counted too (DetectedStep::missed = 1, half-way in time; both get the
+// interval gap / 2). At most one per gap: a longer gap is a pause, a turn, a stop, not a walk
+// at its cadence. The detector's misses then matter little: on steps-oxford, over adaptive_k
+// 0.4 to 0.8 and adaptive_hysteresis_k 0.6 to 0.8, the mean count error stays within 1.8 to
+// 2.3 % (without: 2.2 to 7.1 %, worst trace up to 33 %).
+#include <cstdint>
 #include <optional>
+#include <vector>
 
 #include "core/time.hpp"
 #include "estimators/pdr/butterworth.hpp"
@@ -40,6 +64,10 @@ struct StepDetectorParams {
   double zero_crossing_threshold = 1.0;  // m/s^2, trough depth before an upward crossing
   double min_step_interval_s = 0.33;     // 002
   double max_step_interval_s = 2.0;      // a longer gap starts a new walk: no cadence across it
+  bool cadence_fill = true;              // count the step missed inside a periodic walk
+  double cadence_window_s = 5.0;         // autocorrelation window (a few strides)
+  double cadence_min_corr = 0.5;         // autocorrelation at the step period: a steady walk
+  double cadence_tolerance = 0.25;       // |gap / period - 2| for one missed step
 };
 
 struct DetectedStep {
@@ -47,7 +75,13 @@ struct DetectedStep {
   double a_max = 0, a_min = 0, a_avg = 0;  // filtered signal since the previous step, m/s^2
   double abs_avg = 0;                      // mean |filtered signal| (Kim's model)
   double interval_s = 0;                   // since the previous step; 0 for the first of a walk
+  // Steps the walk's cadence says the peaks missed just before this one (0 or 1), each
+  // interval_s before the next; they share this step's a_max, a_min, a_avg, abs_avg.
+  int missed = 0;
 };
+
+// The step and the missed ones before it, oldest first, each with its own time.
+std::vector<DetectedStep> with_missed(const DetectedStep& step);
 
 class StepDetector {
  public:
@@ -58,6 +92,10 @@ class StepDetector {
   // The adaptive detector's running mean and spread of the filtered signal.
   double mean() const { return mu_; }
   double spread() const;
+  // The walk's step period (s) from the autocorrelation of the last cadence_window_s, and that
+  // autocorrelation (0 when the window is too short or shows no period).
+  double step_period(double* corr) const;
+  int64_t missed_steps() const { return missed_total_; }  // counted from the cadence
 
  private:
   std::optional<DetectedStep> emit(utime_t t);
@@ -72,6 +110,12 @@ class StepDetector {
   double trough_ = 0;  // zero crossing: the lowest value since the last downward crossing
   double mu_ = 0, var_ = 0;  // adaptive: running mean and variance of the filtered signal
   bool armed_ = true;        // adaptive: a valley since the last step
+  // Cadence: the filtered signal on a 50 Hz grid (newest last), the next grid time, the
+  // recent detected intervals.
+  std::vector<double> grid_;
+  double grid_t_ = 0;
+  std::vector<double> recent_;
+  int64_t missed_total_ = 0;
 };
 
 }  // namespace ips::pdr

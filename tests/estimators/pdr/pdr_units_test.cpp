@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <functional>
 #include <ips/imu_t.hpp>
 #include <vector>
 
@@ -105,6 +106,98 @@ TEST(StepDetector, ZeroCrossingCountsTheSameSteps) {
   p.kind = StepDetectorKind::kZeroCrossing;
   EXPECT_EQ(detect(p, 100, 1.8, 2.87, 12.0).size(), 18u);
   EXPECT_TRUE(detect(p, 100, 1.8, 0.9, 12.0).empty());  // troughs above -1 m/s^2
+}
+
+// Steps counted with the ones the cadence adds (DetectedStep::missed), each with its time.
+std::vector<DetectedStep> detect_signal(const StepDetectorParams& p, double fs, double seconds,
+                                        const std::function<double(double)>& signal) {
+  StepDetector d(p, fs);
+  std::vector<DetectedStep> out;
+  for (int i = 0; i < static_cast<int>(seconds * fs); ++i) {
+    const double t = i / fs;
+    if (auto s = d.add(kT0 + static_cast<utime_t>(t * 1e6), signal(t)))
+      for (const DetectedStep& x : with_missed(*s)) out.push_back(x);
+  }
+  return out;
+}
+
+// A swinging arm at the start of a walk: the arm's pendulum swing at half the step frequency
+// adds to the footfalls, so every other valley between two steps is too shallow to re-arm the
+// hysteresis and the peaks show one step per stride. The steps are still in the signal (the
+// autocorrelation has a positive peak at the step period): the cadence counts the one between.
+TEST(StepDetector, SwingingArmStrideCountsBothStepsOfEachStride) {
+  const double hz = 1.8;  // steps; the arm swings at 0.9 Hz
+  const auto arm = [hz](double t) {
+    if (t < 1.0 || t >= 21.0) return 0.0;
+    const double u = t - 1.0;
+    return 1.0 * std::sin(M_PI * hz * u) + 1.5 * std::cos(2 * M_PI * hz * u);
+  };
+  StepDetectorParams p;
+  p.cadence_fill = false;
+  const auto peaks = detect_signal(p, 100, 22, arm);
+  // Both steps while the running spread still grows, then one per stride.
+  EXPECT_LE(peaks.size(), 24u);
+  p.cadence_fill = true;
+  const auto steps = detect_signal(p, 100, 22, arm);
+  // 36 steps in 20 s, give or take one where the signal starts and stops abruptly.
+  EXPECT_NEAR(static_cast<double>(steps.size()), 36.0, 1.0);
+  // Every step, counted or missed, about one step period after the previous one.
+  for (size_t i = steps.size() / 2; i + 1 < steps.size(); ++i)
+    EXPECT_NEAR(utime_to_s(steps[i + 1].utime - steps[i].utime), 1 / hz, 0.06) << i;
+}
+
+// Gentle hand-held steps where now and then a footfall is too soft for the adaptive threshold:
+// the walk's cadence counts each of them; the step period is the signal's own.
+TEST(StepDetector, GentleWalkCountsTheSoftStepsFromItsCadence) {
+  const double hz = 1.7;
+  const auto gentle = [hz](double t) {
+    if (t < 1.0 || t >= 21.0) return 0.0;
+    const double u = t - 1.0;
+    const int step = static_cast<int>(u * hz);
+    const bool soft = step == 6 || step == 13 || step == 19 || step == 26 || step == 31;
+    const double amp = soft ? 0.05 : 1.2;  // m/s^2
+    return -amp * std::cos(2 * M_PI * hz * u);  // one hump per step
+  };
+  StepDetectorParams p;
+  p.cadence_fill = false;
+  const auto peaks = detect_signal(p, 100, 22, gentle);
+  EXPECT_NEAR(static_cast<double>(peaks.size()), 34 - 5, 1.0);  // 34 steps, 5 soft
+  p.cadence_fill = true;
+  const auto steps = detect_signal(p, 100, 22, gentle);
+  EXPECT_NEAR(static_cast<double>(steps.size()), 34.0, 1.0);
+  int missed = 0;
+  for (const DetectedStep& s : steps) missed += s.missed;
+  EXPECT_EQ(missed, 0);  // with_missed hands each out as a step of its own
+  StepDetector d(p, 100);
+  for (int i = 0; i < 2000; ++i) {
+    const double t = i / 100.0;
+    d.add(kT0 + static_cast<utime_t>(t * 1e6), gentle(t));
+  }
+  double corr = 0;
+  EXPECT_NEAR(d.step_period(&corr), 1 / hz, 0.03);
+  EXPECT_GT(corr, 0.5);
+}
+
+// What the cadence must not do: double a slow walk (one hump per step, 0.9 Hz: the half lag
+// is anti-correlated), count through a pause, or count anything at rest.
+TEST(StepDetector, CadenceAddsNothingToASlowWalkAPauseOrRest) {
+  StepDetectorParams p;
+  ASSERT_TRUE(p.cadence_fill);
+  const auto slow = detect_signal(p, 100, 12, [](double t) {
+    return t < 1.0 || t >= 11.0 ? 0.0 : 2.0 * std::sin(2 * M_PI * 0.9 * (t - 1.0));
+  });
+  EXPECT_EQ(slow.size(), 9u);
+  const auto with_pause = [](double t) {
+    const bool walking = (t >= 1.0 && t < 11.0) || (t >= 14.0 && t < 24.0);
+    return walking ? 1.0 * std::sin(2 * M_PI * 1.8 * (t - 1.0)) : 0.0;
+  };
+  const auto steps = detect_signal(p, 100, 25, with_pause);
+  EXPECT_NEAR(static_cast<double>(steps.size()), 36.0, 1.0);
+  for (const DetectedStep& s : steps) EXPECT_EQ(s.missed, 0);
+  StepDetector rest(p, 100);
+  for (int i = 0; i < 3000; ++i)
+    EXPECT_FALSE(rest.add(kT0 + i * 10000, 0.02 * std::sin(i * 0.7)));
+  EXPECT_EQ(rest.missed_steps(), 0);
 }
 
 TEST(StepLength, ModelsOfTheSource) {
