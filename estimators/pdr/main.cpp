@@ -131,6 +131,11 @@ int main(int argc, char** argv) {
     node.add_timer(1.0, [&] {
       drop_health.report(node, est.drop_reasons());
       consistency_health.report(node, est.consistency());
+      if (est.has_site()) {  // and how many magnetometer heading updates were refused, and why
+        const std::string c = est.consistency().problems();
+        node.set_consistency((c.empty() ? est.consistency().summary() : c) + "; " +
+                             est.mag_summary());
+      }
       const std::string problems = est.problems();
       if (problems == heading_unknown) return;
       heading_unknown = problems;

@@ -1,6 +1,8 @@
 #include "estimators/pdr/orientation_ekf.hpp"
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "core/geometry.hpp"
 
@@ -11,6 +13,42 @@ Eigen::Vector3d EarthField::world() const {
   return magnitude_ut *
          Eigen::Vector3d(std::sin(dec) * std::cos(inc), std::cos(dec) * std::cos(inc),
                          -std::sin(inc));
+}
+
+QuasiStaticField check_quasi_static(const std::vector<Eigen::Vector3d>& segment_means,
+                                    double max_heading_rad, double max_norm_ut,
+                                    double max_dip_rad) {
+  QuasiStaticField q;
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  if (segment_means.size() < 2) {
+    q.heading_spread_rad = q.norm_spread_ut = q.dip_spread_rad = nan;
+    return q;
+  }
+  for (const Eigen::Vector3d& m : segment_means) q.mean += m;
+  q.mean /= static_cast<double>(segment_means.size());
+  const double ref = std::atan2(q.mean.y(), q.mean.x());
+  double h_lo = 0, h_hi = 0;
+  double n_lo = HUGE_VAL, n_hi = -HUGE_VAL, d_lo = HUGE_VAL, d_hi = -HUGE_VAL;
+  for (const Eigen::Vector3d& m : segment_means) {
+    if (!m.allFinite()) {
+      q.heading_spread_rad = q.norm_spread_ut = q.dip_spread_rad = nan;
+      return q;
+    }
+    const double h = wrap_angle(std::atan2(m.y(), m.x()) - ref);  // about the mean's heading
+    const double d = std::atan2(-m.z(), std::hypot(m.x(), m.y()));
+    h_lo = std::min(h_lo, h);
+    h_hi = std::max(h_hi, h);
+    n_lo = std::min(n_lo, m.norm());
+    n_hi = std::max(n_hi, m.norm());
+    d_lo = std::min(d_lo, d);
+    d_hi = std::max(d_hi, d);
+  }
+  q.heading_spread_rad = h_hi - h_lo;
+  q.norm_spread_ut = n_hi - n_lo;
+  q.dip_spread_rad = d_hi - d_lo;
+  q.ok = q.heading_spread_rad <= max_heading_rad && q.norm_spread_ut <= max_norm_ut &&
+         q.dip_spread_rad <= max_dip_rad;
+  return q;
 }
 
 void OrientationEkf::initialise(const Eigen::Vector3d& accel, const Eigen::Vector3d& gyro,

@@ -14,6 +14,7 @@
 // Frames: body = the Android device frame; world = the site frame, x East, y North, z up.
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <vector>
 
 #include "core/ekf.hpp"
 
@@ -43,6 +44,25 @@ struct MagUpdate {
   bool accepted = false;
   double innovation = 0, hph = 0, r = 0;
 };
+
+// Quasi-static field check (Afzal et al. 2011, "Use of earth's magnetic field for mitigating
+// gyroscope errors regardless of magnetic perturbation"): the world-frame field, i.e. each
+// magnetometer reading turned by the gyro-propagated attitude, stays the same while the walker
+// moves through an undisturbed field, however the phone turns; a disturbance that varies in
+// space shows as a change along the way. `segment_means` are the world-frame field's means over
+// consecutive stretches (one per step) of a window of a few metres; the field is quasi-static
+// when, over the window, its horizontal heading varies by at most max_heading_rad (the
+// magnetometer's heading change agrees with the gyro's), its norm by at most max_norm_ut and
+// its dip by at most max_dip_rad (max - min over the segments). Fewer than two segments: not
+// checked (ok false, spreads NaN).
+struct QuasiStaticField {
+  bool ok = false;
+  double heading_spread_rad = 0, norm_spread_ut = 0, dip_spread_rad = 0;
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();  // the segments' mean field
+};
+QuasiStaticField check_quasi_static(const std::vector<Eigen::Vector3d>& segment_means,
+                                    double max_heading_rad, double max_norm_ut,
+                                    double max_dip_rad);
 
 class OrientationEkf {
  public:

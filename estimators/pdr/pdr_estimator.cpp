@@ -34,6 +34,8 @@ PdrParams parse_pdr_params(const YamlField& s) {
                 "levi_m_per_hz", "step_min_m", "step_max_m", "use_magnetometer",
                 "mag_field_ut", "mag_inclination_deg", "mag_declination_deg",
                 "mag_norm_tolerance", "mag_dip_tolerance_deg", "mag_update_period_s", "mag_update_distance_m", "mag_gate_chi2",
+                "mag_static_window_m", "mag_static_heading_deg", "mag_static_norm_ut",
+                "mag_static_dip_deg", "mag_correlation_m",
                 "mag_heading_sigma_deg", "phone_yaw_offset_deg", "gyro_noise_rad_s",
                 "gyro_bias_walk_rad_s2", "init_still_s", "max_align_s", "still_gyro_rad_s",
                 "still_accel_mps2", "still_window_s", "step_length_sigma_m", "max_gap_s",
@@ -96,6 +98,11 @@ PdrParams parse_pdr_params(const YamlField& s) {
   bounded("mag_update_period_s", p.mag_update_period_s, 0, 100);
   bounded("mag_update_distance_m", p.mag_update_distance_m, 0, 1000);
   if (s["mag_gate_chi2"].defined()) bounded("mag_gate_chi2", p.mag_gate_chi2, 0.1, 1e6);
+  bounded("mag_static_window_m", p.mag_static_window_m, 0, 100);
+  bounded("mag_static_heading_deg", p.mag_static_heading_deg, 0, 180);
+  bounded("mag_static_norm_ut", p.mag_static_norm_ut, 0, 1000);
+  bounded("mag_static_dip_deg", p.mag_static_dip_deg, 0, 180);
+  bounded("mag_correlation_m", p.mag_correlation_m, 0, 1000);
   double mag_sigma_deg = rad_to_deg(p.noise.mag_heading_sigma_rad);
   bounded("mag_heading_sigma_deg", mag_sigma_deg, 0.01, 180);
   p.noise.mag_heading_sigma_rad = deg_to_rad(mag_sigma_deg);
@@ -343,6 +350,8 @@ void PdrEstimator::walk(Track& t, const std::string& tag_id, const Sample& m, do
       ++t.n_mw;
       t.sum_check += t.ekf.q() * mag;
       ++t.n_check;
+      t.sum_seg += t.ekf.q() * mag;
+      ++t.n_seg;
     }
     if (t.n_check > 0 &&
         utime_to_s(m.utime - t.last_mag_check) >= params_.mag_update_period_s) {
@@ -355,7 +364,11 @@ void PdrEstimator::walk(Track& t, const std::string& tag_id, const Sample& m, do
           kNoGate, true);
       t.sum_check.setZero();
       t.n_check = 0;
-      if (c.field_ok)
+      // Evidence about the magnetometer only while the filter knows its heading at least as
+      // well as the magnetometer is assumed to (after the field has been refused for a while
+      // the innovation is mostly the filter's own uncertainty; the per-step check in
+      // update_mag covers that time).
+      if (c.field_ok && c.hph <= c.r)
         consistency_.add_scalar("MAG", tag_id, utime_to_s(m.utime), c.innovation, c.hph, c.r,
                                 false, mag_setting_);
     }
@@ -377,32 +390,106 @@ void PdrEstimator::walk(Track& t, const std::string& tag_id, const Sample& m, do
 }
 
 void PdrEstimator::update_mag(Track& t, const std::string& tag_id, utime_t now) {
-  // The building's disturbance of the field is a function of place, not time: at one spot
-  // every reading carries the same error, and a heading "corrected" by it twice a second at
-  // rest is pulled to the local field (up to 15 deg on walk-square). So the heading is updated
-  // once per mag_update_distance_m walked (about the disturbance's correlation length), with
-  // the world-frame field averaged over that stretch, and never while standing.
+  // Called once per step. The building's disturbance of the field is a function of place, not
+  // time: at one spot every reading carries the same error, and a heading "corrected" by it
+  // twice a second at rest is pulled to the local field (up to 15 deg on walk-square). So the
+  // heading is updated at most once per mag_update_distance_m walked, never while standing,
+  // only where the field is quasi-static over the last mag_static_window_m (a field that varies
+  // along the walk is disturbed, however plausible its norm and dip), and with its variance
+  // inflated for the error it shares with the previous update (mag_correlation_m).
+  const double step_m = t.mag_distance_m - t.seg_mark_m;
+  t.seg_mark_m = t.mag_distance_m;
+  t.since_accepted_m += step_m;
+  const bool check_static = params_.mag_static_window_m > 0;
+  if (check_static) {
+    const bool new_segment = t.n_seg > 0;
+    if (new_segment) t.segments.emplace_back(t.sum_seg / t.n_seg, step_m);
+    else if (!t.segments.empty()) t.segments.back().second += step_m;
+    t.sum_seg.setZero();
+    t.n_seg = 0;
+    // Keep the steps covering the window: drop the oldest while the rest still covers it.
+    double covered = 0;
+    for (const auto& sgm : t.segments) covered += sgm.second;
+    while (t.segments.size() > 1 &&
+           covered - t.segments.front().second >= params_.mag_static_window_m) {
+      covered -= t.segments.front().second;
+      t.segments.erase(t.segments.begin());
+    }
+    // The consistency check that does not depend on the filter's own heading: this step's
+    // field heading against the window's earlier steps, both turned by the gyro (over a few
+    // metres its error is far below the magnetometer's), as a heading innovation with the
+    // earlier steps' mean counted as 1 / (K - 1) of a measurement's variance.
+    const size_t k = t.segments.size();
+    if (new_segment && k >= 3 && covered >= params_.mag_static_window_m) {
+      Eigen::Vector3d before = Eigen::Vector3d::Zero();
+      for (size_t i = 0; i + 1 < k; ++i) before += t.segments[i].first;
+      const Eigen::Vector3d& last = t.segments.back().first;
+      const double r =
+          wrap_angle(std::atan2(last.y(), last.x()) - std::atan2(before.y(), before.x()));
+      const double scale = 1.0 + 1.0 / static_cast<double>(k - 1);
+      const double sigma = params_.noise.mag_heading_sigma_rad;
+      consistency_.add_scalar("MAG", tag_id, utime_to_s(now), r / std::sqrt(scale), 0.0,
+                              sigma * sigma, false, mag_setting_);
+    }
+  }
   if (t.n_mw == 0 || t.mag_distance_m < params_.mag_update_distance_m ||
       utime_to_s(now - t.last_mag_update) < params_.mag_update_period_s)
     return;
+  Eigen::Vector3d field = t.sum_mw / t.n_mw;
+  if (check_static) {
+    double covered = 0;
+    std::vector<Eigen::Vector3d> means;
+    for (const auto& sgm : t.segments) {
+      covered += sgm.second;
+      means.push_back(sgm.first);
+    }
+    if (covered < params_.mag_static_window_m) return;  // too few steps yet
+    const QuasiStaticField qs = check_quasi_static(
+        means, deg_to_rad(params_.mag_static_heading_deg), params_.mag_static_norm_ut,
+        deg_to_rad(params_.mag_static_dip_deg));
+    if (!qs.ok) {
+      // Refused; tried again at the next step (the window slides), counted once per step.
+      ++stats_.mag_not_static;
+      return;
+    }
+    field = qs.mean;
+  }
   t.last_mag_update = now;
   const double sigma_cfg = params_.noise.mag_heading_sigma_rad;
+  double var = consistency_.variance("MAG", tag_id, sigma_cfg * sigma_cfg);
+  if (params_.mag_correlation_m > 0) {
+    const double rho = std::exp(-t.since_accepted_m / params_.mag_correlation_m);
+    var *= std::min((1.0 + rho) / std::max(1.0 - rho, 1e-6), 1e4);
+  }
   const MagUpdate u = t.ekf.update_mag_heading_world(
-      t.sum_mw / t.n_mw, params_.field, params_.mag_norm_tolerance,
-      deg_to_rad(params_.mag_dip_tolerance_deg),
-      std::sqrt(consistency_.variance("MAG", tag_id, sigma_cfg * sigma_cfg)), params_.mag_gate_chi2);
+      field, params_.field, params_.mag_norm_tolerance,
+      deg_to_rad(params_.mag_dip_tolerance_deg), std::sqrt(var), params_.mag_gate_chi2);
   t.sum_mw.setZero();
   t.n_mw = 0;
-  t.mag_distance_m = 0;
+  t.mag_distance_m = t.seg_mark_m = 0;
   if (u.field_ok) {
     if (!u.accepted)  // refused by mag_gate_chi2 (the checks above see every period)
       consistency_.add_scalar("MAG", tag_id, utime_to_s(now), u.innovation, u.hph, u.r, true,
                               mag_setting_);
     ++stats_.mag_updates;
     if (!u.accepted) ++stats_.mag_gated;
+    else t.since_accepted_m = 0;
   } else {
     ++stats_.mag_rejected;
   }
+}
+
+std::string PdrEstimator::mag_summary() const {
+  if (!params_.use_magnetometer) return "MAG: off (use_magnetometer false)";
+  const int64_t used = stats_.mag_updates - stats_.mag_gated;
+  char buf[200];
+  std::snprintf(buf, sizeof buf,
+                "MAG: %lld heading updates used, refused: %lld field not static, %lld norm/dip, "
+                "%lld gated",
+                static_cast<long long>(used), static_cast<long long>(stats_.mag_not_static),
+                static_cast<long long>(stats_.mag_rejected),
+                static_cast<long long>(stats_.mag_gated));
+  return buf;
 }
 
 void PdrEstimator::emit_step(Track& t, const std::string& tag_id, const DetectedStep& step,

@@ -31,6 +31,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "core/consistency.hpp"
@@ -58,6 +59,18 @@ struct PdrParams {
   double mag_update_distance_m = 2.0;    // ... and per this distance walked (disturbances are
                                          // a function of place: correlated over metres)
   double mag_gate_chi2 = kNoGate;        // innovation gate of the heading update
+  // Quasi-static field check (orientation_ekf.hpp): a heading update only when, over the last
+  // mag_static_window_m walked (per-step means), the world-frame field's heading varied by at
+  // most mag_static_heading_deg (the magnetometer's turn agrees with the gyro's), its norm by
+  // at most mag_static_norm_ut and its dip by at most mag_static_dip_deg. Window 0: off.
+  double mag_static_window_m = 3.0;
+  double mag_static_heading_deg = 5.0;
+  double mag_static_norm_ut = 2.0;
+  double mag_static_dip_deg = 3.0;
+  // The disturbance's correlation length along the walk: an update this close to the previous
+  // one repeats much of its error, so its variance is inflated by (1 + rho) / (1 - rho), rho =
+  // exp(-d / mag_correlation_m) (d: walked since the last accepted update). 0: independent.
+  double mag_correlation_m = 2.0;
   bool learn_noise = true;               // learn the magnetometer's heading noise (never below
                                          // mag_heading_sigma_deg; core/consistency.hpp)
   double phone_yaw_offset_deg = 0.0;     // phone's top relative to the walking direction, CCW
@@ -94,6 +107,8 @@ struct PdrStats {
   int64_t mag_updates = 0;
   int64_t mag_rejected = 0;        // field failed the norm or dip check
   int64_t mag_gated = 0;           // of mag_updates, refused by the innovation gate
+  int64_t mag_not_static = 0;      // refused: the field varied along the last metres (not
+                                   // quasi-static: disturbed), checked once per step
   int64_t steps = 0;
   int64_t no_start_pose = 0;       // tags started at the origin: no start_position in the site
 
@@ -135,6 +150,10 @@ class PdrEstimator {
   const ConsistencyMonitor& consistency() const { return consistency_; }
   // Devices seen without a gyroscope (steps only, heading unknown), for HEALTH.
   std::vector<std::string> accel_only_devices() const;
+  // The magnetometer's heading updates in words, for HEALTH's consistency text and
+  // ips-replay: "MAG: 40 heading updates used, refused: 120 field not static, 2 norm/dip,
+  // 0 gated".
+  std::string mag_summary() const;
   // What keeps it from placing steps, in words ("" when nothing): "no gyroscope on P1: steps
   // only, heading unknown (STEP heading_known false), no POSE_PDR". For HEALTH (a lasting error)
   // and ips-replay.
@@ -173,6 +192,13 @@ class PdrEstimator {
     int n_check = 0;
     utime_t last_mag_check = 0;
     double mag_distance_m = 0;  // walked since the last heading update
+    // Quasi-static check: the world-frame field's mean per step over the last
+    // mag_static_window_m walked, with each step's length.
+    Eigen::Vector3d sum_seg = Eigen::Vector3d::Zero();
+    int n_seg = 0;
+    std::vector<std::pair<Eigen::Vector3d, double>> segments;
+    double seg_mark_m = 0;            // mag_distance_m at the last step
+    double since_accepted_m = 1e9;    // walked since the last accepted heading update
     double sum_cos = 0, sum_sin = 0;  // walking heading since the last step
     Eigen::Vector2d position = Eigen::Vector2d::Zero();
     Eigen::Matrix2d cov = Eigen::Matrix2d::Zero();

@@ -11,6 +11,7 @@
 #include <ips/pose_t.hpp>
 #include <ips/step_t.hpp>
 
+#include "drivers/sim/scenario.hpp"
 #include "drivers/sim/simulator.hpp"
 #include "estimators/pdr/pdr_estimator.hpp"
 #include "loggers/eval/evaluation.hpp"
@@ -68,12 +69,14 @@ PdrRun run(const std::string& scenario, uint64_t seed, const std::string& params
 
 void print(const std::string& what, const PdrRun& r, double expected_steps) {
   std::printf("%s: steps %d (expected %.1f, %+.2f %%), distance %.2f m of %.2f m (%+.2f %%), "
-              "final error %.2f m, closure %.2f m, rmse_h %.2f m; mag %lld/%lld rejected\n",
+              "final error %.2f m, closure %.2f m, rmse_h %.2f m; mag %lld used, %lld not static, "
+              "%lld norm/dip\n",
               what.c_str(), r.steps, expected_steps, 100.0 * (r.steps - expected_steps) / expected_steps,
               r.distance_m, r.path_m, 100.0 * (r.distance_m - r.path_m) / r.path_m,
               r.final_error_m, r.closure_m, r.row.rmse_h,
-              static_cast<long long>(r.stats.mag_rejected),
-              static_cast<long long>(r.stats.mag_updates + r.stats.mag_rejected));
+              static_cast<long long>(r.stats.mag_updates - r.stats.mag_gated),
+              static_cast<long long>(r.stats.mag_not_static),
+              static_cast<long long>(r.stats.mag_rejected));
 }
 
 // The issue's bounds: step count within 2 %, distance within 3 % (walk-square). First
@@ -92,9 +95,9 @@ TEST(PdrAccuracy, WalkSquareStepsDistanceAndClosure) {
     EXPECT_EQ(r.stats.alignments, 1);
     EXPECT_EQ(r.stats.alignments_without_rest, 0);
     EXPECT_EQ(r.stats.no_start_pose, 0);
-    // The lift shaft and the steel door are seen and refused.
-    EXPECT_GT(r.stats.mag_rejected, 0);
-    EXPECT_GT(r.stats.mag_updates, 10 * r.stats.mag_rejected);
+    // The building's field is refused where it varies along the walk (the lift shaft and the
+    // steel door among it); what is used passed the quasi-static check.
+    EXPECT_GT(r.stats.mag_not_static, 10 * (r.stats.mag_updates + r.stats.mag_rejected));
   }
 }
 
@@ -114,10 +117,13 @@ TEST(PdrAccuracy, Loop840StepsDistanceAndClosure) {
 // 2.88 / 9.50 / 4.53 / 2.34 / 6.31 m. With the site's start heading and one heading update per
 // 2 m walked: 2.40 / 5.82 / 3.02 / 1.69 / 3.39 m. With the magnetometer's heading noise learned
 // from its innovations and gyro_noise_rad_s 0.003 (was 0.01, 60x the simulated gyro's):
-// 2.45 / 2.92 / 3.04 / 1.52 / 2.62 m. Issue 22 asks for 2 m on every seed: not met yet (the
-// remaining error is the building's field pulling the heading); the bound guards the gain.
+// 2.45 / 2.92 / 3.04 / 1.52 / 2.62 m. With the quasi-static field check (a heading update only
+// where the world-frame field kept its heading within 5 deg, its norm within 2 uT and its dip
+// within 3 deg over the last 3 m) and the correlated updates' variance inflated:
+// 0.43 / 0.58 / 0.52 / 0.71 / 1.60 m (magnetometer off: 0.43 / 0.43 / 0.41 / 0.48 / 0.36 m).
+// Issue 22's bound, 2 m on every seed.
 TEST(PdrAccuracy, WalkSquareRmse) {
-  const double bound_m[] = {2.7, 3.2, 3.3, 1.7, 2.9};
+  const double bound_m[] = {2.0, 2.0, 2.0, 2.0, 2.0};
   for (uint64_t seed : {1, 2, 3, 4, 5}) {
     const PdrRun r = run("walk-square", seed);
     print("walk-square seed " + std::to_string(seed), r, r.path_m / 0.72);
@@ -156,6 +162,33 @@ TEST(PdrAccuracy, ZeroCrossingAndNormSignalAlsoCountTheSteps) {
     const double expected_steps = r.path_m / 0.72;
     print(std::string("walk-square seed 1 ") + params, r, expected_steps);
     EXPECT_NEAR(r.steps, expected_steps, 0.02 * expected_steps) << params;
+  }
+}
+
+// The quasi-static check refuses a disturbed field, not the magnetometer: in walk-square's
+// building without its disturbances (no random field, no anomalies) nearly every heading update
+// is used, and the track stays within 1.5 m (measured 0.48 to 1.38 m on seeds 1-5).
+TEST(PdrAccuracy, CleanFieldPassesTheQuasiStaticCheck) {
+  std::string text = sim::builtin_scenario_text("walk-square");
+  const auto cut = text.find("    mag_anomalies:");
+  ASSERT_NE(cut, std::string::npos);
+  text.resize(cut);
+  const auto dist = text.find("mag_disturbance_ut: 3");
+  ASSERT_NE(dist, std::string::npos);
+  text.replace(dist, 21, "mag_disturbance_ut: 0");
+  const std::string path = ::testing::TempDir() + "walk-square-clean.yaml";
+  {
+    std::FILE* f = std::fopen(path.c_str(), "w");
+    ASSERT_NE(f, nullptr);
+    std::fputs(text.c_str(), f);
+    std::fclose(f);
+  }
+  for (uint64_t seed : {1, 2}) {
+    const PdrRun r = run(path, seed);
+    print("walk-square (clean field) seed " + std::to_string(seed), r, r.path_m / 0.72);
+    EXPECT_GT(r.stats.mag_updates, 80) << seed;
+    EXPECT_LT(r.stats.mag_not_static, 5) << seed;
+    EXPECT_LT(r.row.rmse_h, 1.5) << seed;
   }
 }
 

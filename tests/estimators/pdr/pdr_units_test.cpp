@@ -294,6 +294,46 @@ TEST(OrientationEkf, DisturbedFieldIsRefused) {
   EXPECT_FALSE(ekf.update_mag_heading(flat, field, 0.15, deg_to_rad(8), 0.2));
 }
 
+// The quasi-static field check on a synthetic walk along x (world-frame field per 0.72 m step,
+// as the gyro-turned magnetometer gives it): the Earth field with the sensor's noise passes;
+// walking through a disturbance that varies over metres (3 uT, 4 m period, like walk-square's
+// building) is refused; one with the norm or the dip changing is refused too.
+TEST(OrientationEkf, QuasiStaticFieldCheck) {
+  const EarthField field;
+  const double head = deg_to_rad(5), dip = deg_to_rad(3), norm_ut = 2.0;
+  auto walk = [&](const std::function<Eigen::Vector3d(double)>& disturbance) {
+    std::vector<Eigen::Vector3d> steps;
+    for (int i = 0; i < 5; ++i) {
+      const double x = 0.72 * i;
+      // The step mean of ~50 readings of 0.4 uT noise: ~0.06 uT.
+      const Eigen::Vector3d noise(0.06 * std::sin(7.1 * i), 0.06 * std::cos(5.3 * i), 0.05);
+      steps.push_back(field.world() + disturbance(x) + noise);
+    }
+    return check_quasi_static(steps, head, norm_ut, dip);
+  };
+  const auto clean = walk([](double) { return Eigen::Vector3d::Zero(); });
+  EXPECT_TRUE(clean.ok);
+  EXPECT_LT(rad_to_deg(clean.heading_spread_rad), 1.0);
+  EXPECT_NEAR(clean.mean.x(), field.world().x(), 0.1);
+  const auto disturbed = walk([](double x) {
+    return Eigen::Vector3d(3 * std::sin(2 * M_PI * x / 4), 3 * std::cos(2 * M_PI * x / 4), 0);
+  });
+  EXPECT_FALSE(disturbed.ok);
+  EXPECT_GT(rad_to_deg(disturbed.heading_spread_rad), 5.0);
+  // Along the field's horizontal direction: the heading barely moves, the norm and dip do.
+  const Eigen::Vector3d along =
+      Eigen::Vector3d(field.world().x(), field.world().y(), 0).normalized();
+  const auto norm_only = walk([&](double x) { return 4.0 * std::sin(2 * M_PI * x / 4) * along; });
+  EXPECT_FALSE(norm_only.ok);
+  EXPECT_LT(rad_to_deg(norm_only.heading_spread_rad), 1.0);
+  EXPECT_GT(norm_only.norm_spread_ut, norm_ut);
+  // A disturbance that is the same all along passes this check (nothing varies): the norm and
+  // dip checks and the learned noise stand against it.
+  EXPECT_TRUE(walk([](double) { return Eigen::Vector3d(1.0, -1.0, 0); }).ok);
+  // One step is not a window.
+  EXPECT_FALSE(check_quasi_static({field.world()}, head, norm_ut, dip).ok);
+}
+
 TEST(PdrEstimator, BadSamplesAreCountedNotUsed) {
   int poses = 0;
   PdrEstimator est([](const step_t&) {}, [&](const pose_t&) { ++poses; });
@@ -405,6 +445,8 @@ TEST(PdrEstimator, BadParametersStopWithTheField) {
   fails("{filter_cutoff_hz: 0}", "filter_cutoff_hz");
   fails("{signal: sideways}", "expected vertical or norm");
   fails("{step_lenght: 1}", "step_lenght");
+  fails("{mag_static_window_m: -1}", "mag_static_window_m");
+  fails("{mag_correlation_m: -2}", "mag_correlation_m");
 }
 
 }  // namespace
