@@ -435,6 +435,12 @@ void PdrEstimator::update_mag(Track& t, const std::string& tag_id, utime_t now) 
   if (t.n_mw == 0 || t.mag_distance_m < params_.mag_update_distance_m ||
       utime_to_s(now - t.last_mag_update) < params_.mag_update_period_s)
     return;
+  const double sigma_cfg = params_.noise.mag_heading_sigma_rad;
+  double var = consistency_.variance("MAG", tag_id, sigma_cfg * sigma_cfg);
+  if (params_.mag_correlation_m > 0) {
+    const double rho = std::exp(-t.since_accepted_m / params_.mag_correlation_m);
+    var *= std::min((1.0 + rho) / std::max(1.0 - rho, 1e-6), 1e4);
+  }
   Eigen::Vector3d field = t.sum_mw / t.n_mw;
   if (check_static) {
     double covered = 0;
@@ -447,20 +453,19 @@ void PdrEstimator::update_mag(Track& t, const std::string& tag_id, utime_t now) 
     const QuasiStaticField qs = check_quasi_static(
         means, deg_to_rad(params_.mag_static_heading_deg), params_.mag_static_norm_ut,
         deg_to_rad(params_.mag_static_dip_deg));
-    if (!qs.ok) {
-      // Refused; tried again at the next step (the window slides), counted once per step.
+    if (qs.ok) {
+      field = qs.mean;
+    } else if (t.ekf.yaw_variance() < var) {
+      // Refused while the filter knows its heading better than the magnetometer is assumed to
+      // (a disturbed field would only spoil it); tried again at the next step (the window
+      // slides), counted once per step. A filter less sure than that (no rest to learn the
+      // gyro bias, a long refusal) still takes the field, with its learned, inflated variance:
+      // the heading's sigma never grows far beyond the magnetometer's while there is a field.
       ++stats_.mag_not_static;
       return;
     }
-    field = qs.mean;
   }
   t.last_mag_update = now;
-  const double sigma_cfg = params_.noise.mag_heading_sigma_rad;
-  double var = consistency_.variance("MAG", tag_id, sigma_cfg * sigma_cfg);
-  if (params_.mag_correlation_m > 0) {
-    const double rho = std::exp(-t.since_accepted_m / params_.mag_correlation_m);
-    var *= std::min((1.0 + rho) / std::max(1.0 - rho, 1e-6), 1e4);
-  }
   const MagUpdate u = t.ekf.update_mag_heading_world(
       field, params_.field, params_.mag_norm_tolerance,
       deg_to_rad(params_.mag_dip_tolerance_deg), std::sqrt(var), params_.mag_gate_chi2);
