@@ -3,6 +3,7 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <tuple>
 
 #include "core/barometric.hpp"
 #include "core/text_escape.hpp"
@@ -15,6 +16,9 @@ namespace {
 constexpr double kMinPressurePa = 30000.0;
 constexpr double kMaxPressurePa = 125000.0;
 constexpr size_t kMaxPending = 1000;  // per tag; more and the oldest are used at once
+// The change detector (AltitudeEstimator::still_update): its window holds at least this many
+// readings (a 1 s window of a 2 Hz sensor would hold two).
+constexpr size_t kMinWindow = 5;
 
 std::string seconds(double s) {
   char buf[32];
@@ -31,7 +35,9 @@ AltitudeParams parse_altitude_params(const YamlField& s) {
                 "pressure_sigma_pa", "accel_sigma_mps2", "initial_speed_sigma_mps", "gate_sigma",
                 "max_rejections", "align_wait_s", "max_reference_age_s",
                 "reference_drift_pa_per_s", "max_gap_s", "publish_period_s", "floors",
-                "max_tags", "sensors", "learn_noise", "mode", "relative_start_s"});
+                "max_tags", "sensors", "learn_noise", "mode", "relative_start_s",
+                "still_window_s", "motion_window_s", "motion_sigma", "still_after_s",
+                "wander_learn_s"});
   p.reference = s.get_string("reference", p.reference);
   const YamlField offsets = s["offsets_pa"];
   if (offsets.defined()) {
@@ -66,6 +72,11 @@ AltitudeParams parse_altitude_params(const YamlField& s) {
   if (p.mode != "auto" && p.mode != "differential" && p.mode != "relative")
     s["mode"].fail("expected auto, differential or relative");
   p.relative_start_s = s.get_double_in("relative_start_s", p.relative_start_s, 0, 600);
+  p.still_window_s = s.get_double_in("still_window_s", p.still_window_s, 0, 3600);
+  p.motion_window_s = s.get_double_in("motion_window_s", p.motion_window_s, 0.1, 60);
+  p.motion_sigma = s.get_double_in("motion_sigma", p.motion_sigma, 1, 100);
+  p.still_after_s = s.get_double_in("still_after_s", p.still_after_s, 0, 600);
+  p.wander_learn_s = s.get_double_in("wander_learn_s", p.wander_learn_s, 1, 86400);
   const YamlField sensors = s["sensors"];
   if (sensors.defined()) {
     if (!sensors.is_map()) sensors.fail("expected a map of sensor id: {type, pressure_sigma_pa}");
@@ -415,9 +426,11 @@ void AltitudeEstimator::use(const std::string& tag_id, Track& t, const TagReadin
   const double var = consistency_.variance("BARO", tag_id, var_cfg);
 
   CvFilter<1>& f = t.filter;
-  bool restart = !t.initialised || utime_to_s(r.utime - t.last_utime) > params_.max_gap_s;
+  const double dt_s = utime_to_s(r.utime - t.last_utime);
+  bool restart = !t.initialised || dt_s > params_.max_gap_s;
+  bool accepted = false;
   if (!restart) {
-    f.predict(utime_to_s(r.utime - t.last_utime), params_.accel_sigma_mps2 * params_.accel_sigma_mps2);
+    f.predict(dt_s, params_.accel_sigma_mps2 * params_.accel_sigma_mps2);
     const BaroPrediction pred = predict_baro(f.x(0), br);
     const double hph = pred.dpressure_dheight * pred.dpressure_dheight * f.P(0, 0);
     const double innovation = r.pressure_pa - pred.pressure_pa;
@@ -428,6 +441,7 @@ void AltitudeEstimator::use(const std::string& tag_id, Track& t, const TagReadin
     if (u.accepted) {
       ++stats_.used;
       t.rejections = 0;
+      accepted = true;
     } else {
       ++stats_.rejected;
       restart = ++t.rejections >= params_.max_rejections;
@@ -444,13 +458,125 @@ void AltitudeEstimator::use(const std::string& tag_id, Track& t, const TagReadin
         params_.initial_speed_sigma_mps * params_.initial_speed_sigma_mps;
     t.initialised = true;
     t.rejections = 0;
+    restart_still(t, r.utime);
+  } else if (accepted) {
+    const double z = br.height_m + barometric::height_above_m(br.pressure_pa, r.pressure_pa,
+                                                               br.inverse_scale_height);
+    still_update(t, r.utime, dt_s, z, var / (dpdh * dpdh));
   }
   t.bias_var_m2 = bias_var / (dpdh * dpdh);
   t.last_utime = r.utime;
-  t.floor.update(params_.floors, r.utime, f.x(0));
+  t.floor.update(params_.floors, r.utime, t.moving ? f.x(0) : t.still_h);
   if (t.last_publish_utime == 0 ||
       r.utime - t.last_publish_utime >= s_to_utime(params_.publish_period_s))
     publish(tag_id, t, r.utime);
+}
+
+void AltitudeEstimator::restart_still(Track& t, utime_t utime) const {
+  t.moving = params_.still_window_s <= 0;
+  t.still_h = t.filter.x(0);
+  t.still_var = std::max(0.0, t.filter.P(0, 0));
+  t.mode_utime = utime;
+  t.slow_since = 0;
+  t.window.clear();
+  t.window_sum = 0;
+  t.moving_h.clear();
+  t.mean_lean = 0;
+}
+
+void AltitudeEstimator::still_update(Track& t, utime_t utime, double dt_s, double z,
+                                     double r_m2) {
+  if (params_.still_window_s <= 0) return;  // the constant-velocity filter only
+  // The still model: a height random walk whose Kalman gain settles at dt / still_window_s,
+  // i.e. an average over about still_window_s of readings (q dt = r (dt / window)^2).
+  const double a = dt_s / params_.still_window_s;
+  t.still_var += r_m2 * a * a;
+  const double innovation = z - t.still_h;
+  const double gain = t.still_var / (t.still_var + r_m2);
+  t.still_h += gain * innovation;
+  t.still_var *= 1 - gain;
+  // The change detector: the mean of the still model's innovations over motion_window_s against
+  // the spread such means show while still (learned; never below white noise's r / n).
+  t.window.emplace_back(utime, innovation);
+  t.window_sum += innovation;
+  const utime_t span = s_to_utime(params_.motion_window_s);
+  while (t.window.size() > kMinWindow && t.window.front().first <= utime - span) {
+    t.window_sum -= t.window.front().second;
+    t.window.pop_front();
+  }
+  const double n = static_cast<double>(t.window.size());
+  const double mean = t.window_sum / n;
+  const double white = r_m2 / n + t.still_var;
+  const double spread = std::isfinite(t.detect_var) ? std::max(t.detect_var, white) : white;
+  const double since_s = utime_to_s(utime - t.mode_utime);
+  if (t.moving) {
+    // The still hypothesis, restarted on the moving filter whenever its innovations disagree
+    // (a lower bar than for leaving still: staying moving a little longer costs little).
+    if (t.window.size() >= 3 &&
+        std::abs(mean) > 0.5 * params_.motion_sigma * std::sqrt(spread)) {
+      auto moving_h = std::move(t.moving_h);
+      restart_still(t, utime);
+      t.moving = true;
+      t.moving_h = std::move(moving_h);
+    }
+    // Slow: the moving filter's speed not significant, and its height over still_after_s
+    // changed by less than twice what its noise and the wander explain.
+    const double p00 = std::max(0.0, t.filter.P(0, 0));
+    t.moving_h.emplace_back(utime, t.filter.x(0), p00);
+    const utime_t back = s_to_utime(params_.still_after_s);
+    while (t.moving_h.size() > 1 && std::get<0>(t.moving_h[1]) <= utime - back)
+      t.moving_h.pop_front();
+    const auto& [then_utime, then_h, then_p00] = t.moving_h.front();
+    const bool slow =
+        std::abs(t.filter.x(1)) <= 2 * std::sqrt(std::max(0.0, t.filter.P(1, 1))) &&
+        utime - then_utime >= back &&
+        std::abs(t.filter.x(0) - then_h) <= 2 * std::sqrt(p00 + then_p00);
+    if (!slow) {
+      t.slow_since = 0;
+    } else if (t.slow_since == 0) {
+      t.slow_since = utime;
+    }
+    if (utime_to_s(utime - t.mode_utime) >= params_.still_after_s && t.slow_since != 0 &&
+        utime_to_s(utime - t.slow_since) >= params_.still_after_s) {
+      // The still model starts from the moving filter's mean height over still_after_s (its
+      // latest height alone carries its noise into the long average).
+      double sum = 0;
+      for (const auto& e : t.moving_h) sum += std::get<1>(e);
+      t.still_h = sum / static_cast<double>(t.moving_h.size());
+      t.still_var = p00;
+      t.moving = false;
+      t.mode_utime = utime;
+    }
+    return;
+  }
+  if (since_s < params_.motion_window_s) return;  // a full window since the switch
+  if (std::abs(mean) > params_.motion_sigma * std::sqrt(spread)) {
+    ++stats_.motion_starts;
+    restart_still(t, utime);
+    t.moving = true;
+    return;
+  }
+  // Learned while still; one mean counts at most 1.5x the current spread, so a slow real
+  // change (stairs at 0.1 m/s) is not learned as noise before it is detected. The detector's spread rises over
+  // wander_learn_s and falls ten times slower (the means are correlated over the wander's own
+  // time scale, tens of seconds: a quick fall would forget it between two excursions); the
+  // sigma's, an even average over 2 wander_learn_s.
+  // Not while the means lean one way (their average over wander_learn_s beyond half the
+  // spread: a slow ramp, which the detector is about to see) or the moving filter's speed is
+  // significant.
+  const double lean_w = std::min(1.0, dt_s / params_.wander_learn_s);
+  t.mean_lean += lean_w * (mean - t.mean_lean);
+  if (std::abs(t.mean_lean) > 0.5 * std::sqrt(spread) ||
+      std::abs(t.filter.x(1)) > 2 * std::sqrt(std::max(0.0, t.filter.P(1, 1))))
+    return;
+  const double m2 = std::min(mean * mean, 4 * spread);
+  if (!std::isfinite(t.mean_var)) t.mean_var = t.detect_var = white;
+  const double w = std::min(1.0, dt_s / (2 * params_.wander_learn_s));
+  t.mean_var += w * (m2 - t.mean_var);
+  const double learn_s = params_.wander_learn_s * (m2 > t.detect_var ? 1 : 10);
+  t.detect_var += std::min(1.0, dt_s / learn_s) * (m2 - t.detect_var);
+  // The wander: what the means show beyond a window of white noise (r / n readings).
+  t.wander_var = std::max(0.0, t.mean_var - r_m2 / n);
 }
 
 void AltitudeEstimator::publish(const std::string& tag_id, Track& t, utime_t utime) {
@@ -459,9 +585,14 @@ void AltitudeEstimator::publish(const std::string& tag_id, Track& t, utime_t uti
   a.source = source_;
   a.relative = relative_;
   a.tag_id = tag_id;
-  a.height_m = t.filter.x(0);
-  a.height_std_m = std::sqrt(std::max(0.0, t.filter.P(0, 0)) + t.bias_var_m2);
-  a.vertical_speed_mps = t.filter.x(1);
+  const bool still = !t.moving;
+  a.height_m = still ? t.still_h : t.filter.x(0);
+  // The filter's own variance, the reference's bias (drift; relative mode: the start level's
+  // error) and the sensor's slow wander, which the filters cannot average away (relative mode:
+  // twice, the start level carries it too).
+  const double own = still ? t.still_var : std::max(0.0, t.filter.P(0, 0));
+  a.height_std_m = std::sqrt(own + t.bias_var_m2 + (relative_ ? 2 : 1) * t.wander_var);
+  a.vertical_speed_mps = still ? 0.0 : t.filter.x(1);
   a.floor_valid = t.floor.valid();
   a.floor = a.floor_valid ? t.floor.floor(params_.floors) : 0;
   t.last_publish_utime = utime;

@@ -12,7 +12,16 @@
 //      temperature (models/baro_height.hpp: 003 (4.31)-(4.32)), with the reference's measured
 //      temperature (003: 7 cm per 10 C at 2 m, not negligible) and its humidity, else a constant
 //      humidity (003: 50 %). Low lag: 003's 150-sample moving average delays by 7.5 s.
-//   4. Optionally the floor (floor_detector.hpp) from the floor heights in the site.
+//   4. Still or moving (issue 22): beside the constant-velocity filter runs a "still" model, a
+//      constant height averaged over still_window_s (a height random walk whose steady-state
+//      averaging time is that window). A change detector on the still model's innovations (their
+//      mean over motion_window_s against the spread such means showed while still, learned per
+//      tag) switches to the moving model when a real change starts, and back once the still
+//      model has held for still_after_s and the vertical speed is no longer significant. Still:
+//      the still model's height, vertical speed 0; moving: the constant-velocity filter's.
+//      The published sigma adds what the filters cannot see: the sensor's slow wander (the
+//      learned spread of those means beyond white noise) and the reference's drift.
+//   5. Optionally the floor (floor_detector.hpp) from the floor heights in the site.
 // Pure: takes messages, emits altitude_t through a callback, never reads a clock.
 #include <cmath>
 #include <deque>
@@ -22,6 +31,7 @@
 #include <map>
 #include <optional>
 #include <string>
+#include <tuple>
 #include <utility>
 
 #include "core/consistency.hpp"
@@ -72,6 +82,12 @@ struct AltitudeParams {
   // station and names no reference.
   std::string mode = "auto";
   double relative_start_s = 1.0;  // relative mode: the first readings averaged for height 0
+  // Still/moving detection (step 4 above). still_window_s 0: the constant-velocity filter only.
+  double still_window_s = 120.0;  // averaging time of a still tag's height
+  double motion_window_s = 1.0;   // innovations averaged by the change detector
+  double motion_sigma = 4.0;      // their mean beyond this many learned sigmas: moving
+  double still_after_s = 10.0;    // moving ends after this long with no change seen
+  double wander_learn_s = 30.0;   // the learned spread of the means rises over this (falls 10x slower)
 
   // The configured noise of one reading of `sensor_id` (its own setting, else its type's data
   // sheet figure, else pressure_sigma_pa), and the setting's name as the user writes it.
@@ -99,6 +115,7 @@ struct AltitudeStats {
   int64_t reference_switches = 0;
   int64_t retimed = 0;  // readings sharing their sensor's previous stamp, spread at its rate
   int64_t altitudes_out = 0;
+  int64_t motion_starts = 0;  // still -> moving switches of the change detector
 
   // The readings that gave no altitude, by reason (HEALTH, ips-replay's summary); a reference
   // station's readings are used, not dropped, though they give no altitude of their own.
@@ -169,6 +186,18 @@ class AltitudeEstimator {
     double start_temperature_c = NAN;
     utime_t start_utime = 0;
     double bias_var_m2 = 0;  // the reference's bias variance, in the published sigma
+    // The still model (a constant height averaged over still_window_s) and the detector.
+    bool moving = false;
+    double still_h = 0, still_var = 0;  // m, m^2
+    utime_t mode_utime = 0;     // the latest switch or detection
+    utime_t slow_since = 0;     // moving: since when the speed is not significant; 0: it is
+    std::deque<std::pair<utime_t, double>> window;  // the still model's innovations, m
+    double window_sum = 0;
+    double mean_var = NAN;    // learned variance of the window's mean while still, m^2
+    double detect_var = NAN;  // the same, quick to rise and slow to fall: the detector's
+    double mean_lean = 0;     // the means' own average: a one-sided lean is a slow change
+    std::deque<std::tuple<utime_t, double, double>> moving_h;  // moving: time, height, P00
+    double wander_var = 0;  // its part beyond white noise: the sensor's slow wander, m^2
   };
   // Per sensor: its readings' stamps, to spread readings that share one at the sensor's rate.
   struct Timing {
@@ -193,6 +222,10 @@ class AltitudeEstimator {
   // Fuses one tag reading against `station` (pick_reference's choice at its time; nullptr: none).
   void use(const std::string& tag_id, Track& t, const TagReading& r,
            const std::pair<const std::string, Station>* station);
+  // The still model and the change detector on one used reading: z the reading's height, r_m2
+  // its variance, dt_s since the track's previous reading.
+  void still_update(Track& t, utime_t utime, double dt_s, double z, double r_m2);
+  void restart_still(Track& t, utime_t utime) const;
   void publish(const std::string& tag_id, Track& t, utime_t utime);
 
   AltitudeSink sink_;

@@ -1,12 +1,16 @@
 // ips-altitude's honesty (issue 22): per-sensor noise from the site or the sensor's type, the
 // noise learned online and a too-small setting said by the consistency monitor, readings that
-// share one stamp spread at the sensor's rate, the single-barometer (relative) mode, and a
-// reported sigma that covers the errors of a static sensor.
+// share one stamp spread at the sensor's rate, the single-barometer (relative) mode, a
+// reported sigma that covers the errors of a static sensor, and the still/moving detection: a
+// still sensor averaged over still_window_s, a real change released within a second or two.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <random>
+#include <functional>
 #include <vector>
 
 #include "core/barometric.hpp"
@@ -196,6 +200,153 @@ TEST(AltitudeNoise, ASingleBarometerGivesHeightsRelativeToItsFirstReadings) {
   g.est.finish();
   EXPECT_TRUE(g.out.empty());
   EXPECT_EQ(g.est.stats().dropped_no_reference, 1);
+}
+
+// A barometer like baro-loruro's BMP180 at rest: 9 Hz, white noise plus a slow wander (a
+// first-order Gauss-Markov process, 3 Pa over 20 s: indoor air and the sensor's own drift).
+// `height(s)`: the truth; relative mode (no station). Returns the estimator's output.
+std::vector<altitude_t> run_relative(const std::function<double(double)>& height, double white_pa,
+                                     double wander_pa, double seconds, uint32_t seed,
+                                     Fixture& f) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> unit(0.0, 1.0);
+  const double dt = 1 / 9.0, p0 = 97300.0, tau = 20.0;
+  double w = wander_pa * unit(rng);
+  for (int i = 0; i * dt < seconds; ++i) {
+    w = w * std::exp(-dt / tau) + wander_pa * std::sqrt(1 - std::exp(-2 * dt / tau)) * unit(rng);
+    f.est.on_baro(reading("T1", kT0 + static_cast<utime_t>(i * dt * 1e6),
+                          pressure_at(p0, 0.0, height(i * dt)) + w + white_pa * unit(rng)));
+  }
+  f.est.finish();
+  return f.out;
+}
+
+TEST(AltitudeStill, AStillSensorIsAveragedAndItsSigmaCoversTheWander) {
+  for (uint32_t seed : {1u, 2u, 3u}) {
+    Fixture f;
+    f.est.set_site(site_with("{sensors: {T1: {type: BMP180}}}", /*stations=*/false));
+    const auto out = run_relative([](double) { return 0.0; }, 7.0, 3.0, 300, seed, f);
+    ASSERT_GT(out.size(), 2600u);
+    // The raw per-sample height noise: the readings' spread in m (white and wander, 11.5 Pa/m).
+    const double raw_m = std::sqrt(7.0 * 7.0 + 3.0 * 3.0) / 11.5;
+    double sum = 0, sum2 = 0;
+    int inside = 0;
+    for (const auto& a : out) {
+      sum += a.height_m;
+      sum2 += a.height_m * a.height_m;
+      inside += std::abs(a.height_m) <= 2 * a.height_std_m;
+    }
+    const double n = static_cast<double>(out.size());
+    const double sd = std::sqrt(std::max(0.0, sum2 / n - (sum / n) * (sum / n)));
+    const double cov = inside / n;
+    std::printf("seed %u: filtered spread %.3f m, raw %.3f m (ratio %.2f), cov2s %.3f, "
+                "motion starts %lld, final sigma %.3f m\n",
+                seed, sd, raw_m, sd / raw_m, cov,
+                static_cast<long long>(f.est.stats().motion_starts), out.back().height_std_m);
+    EXPECT_LE(sd, 0.5 * raw_m) << "seed " << seed;  // issue 22: at most half the raw spread
+    EXPECT_GE(cov, 0.95) << "seed " << seed;
+    EXPECT_LE(f.est.stats().motion_starts, 1) << "seed " << seed;  // no made-up motion
+    EXPECT_EQ(out.back().vertical_speed_mps, 0.0);
+  }
+}
+
+// The RMS error and the error's spread of the output over [from_s, to_s] (seconds after kT0).
+struct Errors {
+  double rms_m = 0, sd_m = 0;
+};
+Errors errors_over(const std::vector<altitude_t>& out, const std::function<double(double)>& height,
+                   double from_s, double to_s) {
+  double sum = 0, sum2 = 0;
+  int n = 0;
+  for (const auto& a : out) {
+    const double s = utime_to_s(a.utime - kT0);
+    if (s < from_s || s > to_s) continue;
+    const double e = a.height_m - height(s);
+    sum += e;
+    sum2 += e * e;
+    ++n;
+  }
+  if (n == 0) return {};
+  return {std::sqrt(sum2 / n), std::sqrt(std::max(0.0, sum2 / n - (sum / n) * (sum / n)))};
+}
+
+TEST(AltitudeStill, ALiftOrStairsAreReleasedWithinSeconds) {
+  // 60 s still, then 6 m at `speed` (a lift 1 m/s; stairs 0.3 m/s), then 60 s still; a quiet
+  // sensor (1 Pa white, 0.5 Pa of wander) and a noisy one (baro-loruro's oss 0: 7 Pa, 3 Pa).
+  // Against the constant-velocity filter alone (still_window_s 0) on the same readings.
+  struct Case {
+    double speed, white, wander, detect_s;
+  };
+  for (const Case c : {Case{1.0, 1.0, 0.5, 1.0}, Case{0.3, 1.0, 0.5, 1.5},
+                       Case{1.0, 7.0, 3.0, 2.0}, Case{0.3, 7.0, 3.0, 6.0}}) {
+    const double end_s = 60 + 6 / c.speed;
+    auto height = [&](double s) { return s < 60 ? 0.0 : s < end_s ? c.speed * (s - 60) : 6.0; };
+    Fixture f, cv;
+    f.est.set_site(site_with("{sensors: {T1: {pressure_sigma_pa: 1}}}", /*stations=*/false));
+    cv.est.set_site(site_with("{sensors: {T1: {pressure_sigma_pa: 1}}, still_window_s: 0}",
+                              /*stations=*/false));
+    const auto out = run_relative(height, c.white, c.wander, end_s + 60, 7, f);
+    const auto out_cv = run_relative(height, c.white, c.wander, end_s + 60, 7, cv);
+    // Released: the first height after the start from the moving model (a vertical speed).
+    double detect = NAN;
+    for (const auto& a : out) {
+      const double s = utime_to_s(a.utime - kT0);
+      if (s >= 60 && a.vertical_speed_mps != 0.0) {
+        detect = s - 60;
+        break;
+      }
+    }
+    // Still again: the share of the heights 10 to 60 s after the change from the still model.
+    int still = 0, n = 0;
+    for (const auto& a : out) {
+      const double s = utime_to_s(a.utime - kT0);
+      if (s < end_s + 10) continue;
+      ++n;
+      still += a.vertical_speed_mps == 0.0;
+    }
+    const Errors moving = errors_over(out, height, 60, end_s + 10);
+    const Errors moving_cv = errors_over(out_cv, height, 60, end_s + 10);
+    const Errors after = errors_over(out, height, end_s + 10, end_s + 60);
+    const Errors after_cv = errors_over(out_cv, height, end_s + 10, end_s + 60);
+    std::printf("speed %.1f m/s, noise %.0f Pa: released %.2f s after the start; RMS error from "
+                "the start to 10 s after the end %.3f m (CV filter alone %.3f m); spread 10 to "
+                "60 s after %.3f m (CV alone %.3f m), %.0f %% still; motion starts %lld\n",
+                c.speed, c.white, detect, moving.rms_m, moving_cv.rms_m, after.sd_m,
+                after_cv.sd_m, 100.0 * still / n,
+                static_cast<long long>(f.est.stats().motion_starts));
+    EXPECT_LE(detect, c.detect_s) << "speed " << c.speed << " noise " << c.white;
+    EXPECT_GE(f.est.stats().motion_starts, 1);
+    // Tracking the change: the detection delay costs a little against the CV filter alone.
+    EXPECT_LE(moving.rms_m, 1.5 * moving_cv.rms_m + c.speed * c.detect_s / 4)
+        << "speed " << c.speed << " noise " << c.white;
+    // Still again once still_after_s (10 s) has shown no change: averaged from then on, a
+    // smaller spread than the CV filter's. The return is slow where the sensor wanders (its
+    // height over 10 s must agree within the CV filter's own noise): measured, not tuned.
+    EXPECT_LE(after.sd_m, 0.85 * after_cv.sd_m) << "speed " << c.speed << " noise " << c.white;
+    EXPECT_GE(still, 0.2 * n);
+  }
+}
+
+TEST(AltitudeStill, StillWindowZeroKeepsTheConstantVelocityFilterOnly) {
+  Fixture f;
+  f.est.set_site(site_with("{still_window_s: 0}", /*stations=*/false));
+  run_relative([](double) { return 0.0; }, 3.0, 0.0, 30, 1, f);
+  EXPECT_EQ(f.est.stats().motion_starts, 0);
+  ASSERT_FALSE(f.out.empty());
+  EXPECT_NE(f.out.back().vertical_speed_mps, 0.0);  // the CV filter's own speed
+  auto error_of = [](const std::string& yaml) {
+    try {
+      parse_altitude_params(site_with(yaml).estimator_params("altitude"));
+    } catch (const ConfigError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_NE(error_of("{motion_sigma: 0.5}").find("motion_sigma"), std::string::npos);
+  EXPECT_NE(error_of("{still_window_s: -1}").find("still_window_s"), std::string::npos);
+  EXPECT_EQ(error_of("{still_window_s: 60, motion_window_s: 2, still_after_s: 3, "
+                     "wander_learn_s: 30}"),
+            "no error");
 }
 
 }  // namespace
