@@ -552,10 +552,16 @@ void AltitudeEstimator::still_update(Track& t, utime_t utime, double dt_s, doubl
   if (since_s < params_.motion_window_s) return;  // a full window since the switch
   if (std::abs(mean) > params_.motion_sigma * std::sqrt(spread)) {
     ++stats_.motion_starts;
+    t.moved = true;
     restart_still(t, utime);
     t.moving = true;
     return;
   }
+  // Relative mode: while the tag has not moved since its start, the long average's distance
+  // from height 0 is the start level's own error (e.g. a sensor still warming up in its first
+  // second); the largest seen stays in the published sigma.
+  if (relative_ && !t.moved && since_s >= params_.still_window_s / 4)
+    t.start_error_m2 = std::max(t.start_error_m2, t.still_h * t.still_h);
   // Learned while still; one mean counts at most 1.5x the current spread, so a slow real
   // change (stairs at 0.1 m/s) is not learned as noise before it is detected. The detector's spread rises over
   // wander_learn_s and falls ten times slower (the means are correlated over the wander's own
@@ -591,7 +597,8 @@ void AltitudeEstimator::publish(const std::string& tag_id, Track& t, utime_t uti
   // error) and the sensor's slow wander, which the filters cannot average away (relative mode:
   // twice, the start level carries it too).
   const double own = still ? t.still_var : std::max(0.0, t.filter.P(0, 0));
-  a.height_std_m = std::sqrt(own + t.bias_var_m2 + (relative_ ? 2 : 1) * t.wander_var);
+  a.height_std_m =
+      std::sqrt(own + t.bias_var_m2 + (relative_ ? 2 : 1) * t.wander_var + t.start_error_m2);
   a.vertical_speed_mps = still ? 0.0 : t.filter.x(1);
   a.floor_valid = t.floor.valid();
   a.floor = a.floor_valid ? t.floor.floor(params_.floors) : 0;

@@ -196,6 +196,10 @@ class AltitudeEstimator {
     double mean_var = NAN;    // learned variance of the window's mean while still, m^2
     double detect_var = NAN;  // the same, quick to rise and slow to fall: the detector's
     double mean_lean = 0;     // the means' own average: a one-sided lean is a slow change
+    // Relative mode, until the first motion: the largest distance seen between the start level
+    // and the still model's long average, m^2 (a warm-up transient in the first readings).
+    bool moved = false;
+    double start_error_m2 = 0;
     std::deque<std::tuple<utime_t, double, double>> moving_h;  // moving: time, height, P00
     double wander_var = 0;  // its part beyond white noise: the sensor's slow wander, m^2
   };
