@@ -20,6 +20,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <cstdlib>
 #include <deque>
 #include <map>
 #include <string>
@@ -73,7 +74,9 @@ class ConsistencyMonitor {
     double gated_share = 0.0;  // of the window
     State state = State::kTooFew;
     bool scalar = false;
-    double learned_sigma = NAN;  // scalar channels with learning: the sigma in use now
+    double learned_sigma = NAN;  // scalar channels with learning: the sigma in use now, in the
+                                 // innovation's units
+    double learned_factor = NAN; // ... over the configured sigma
     bool compensated = false;    // learning covers the mismatch (within its bounds)
   };
 
@@ -149,7 +152,7 @@ class ConsistencyMonitor {
       s += v.kind + " " + v.source + " " + fmt(v.ratio, v.ratio < 10 ? 1 : 0) + "x";
       if (v.gated_share >= 0.005) s += " " + fmt(100.0 * v.gated_share, 0) + "% gated";
       if (std::isfinite(v.learned_sigma) && v.state == State::kNoisy)
-        s += " (learned sigma " + fmt(v.learned_sigma, -3) + ")";
+        s += " (learned sigma " + learned_text(v) + ")";
     }
     return s;
   }
@@ -174,7 +177,7 @@ class ConsistencyMonitor {
         s += ")";
       }
       if (std::isfinite(v.learned_sigma) && v.state == State::kNoisy)
-        s += ", learned sigma " + fmt(v.learned_sigma, -3);
+        s += ", learned sigma " + learned_text(v);
     }
     return s;
   }
@@ -302,6 +305,7 @@ class ConsistencyMonitor {
                                           : State::kOk;
     if (c.learns && std::isfinite(c.learned_scale)) {
       v.learned_sigma = std::sqrt(c.learned_scale * c.r_cfg);
+      v.learned_factor = std::sqrt(c.learned_scale);
       v.compensated = !c.at_bound;
     }
     return v;
@@ -321,7 +325,7 @@ class ConsistencyMonitor {
       if (!v.setting.empty()) s += "; " + v.setting + " looks too small for this " + what;
       if (std::isfinite(v.learned_sigma))
         s += std::string(v.compensated ? " (learned sigma " : " (learned sigma at its bound, ") +
-             fmt(v.learned_sigma, -3) + ")";
+             learned_text(v) + ")";
     }
     if (v.gated_share > opts_.gated_warn) {
       if (s.empty()) s = name;
@@ -329,6 +333,21 @@ class ConsistencyMonitor {
       s += fmt(100.0 * v.gated_share, 0) + "% of its measurements gated";
     }
     return s;
+  }
+  // The learned sigma in the setting's own units ("mag_heading_sigma_deg 2" learned 8x: "16"),
+  // whatever units the innovations come in (radians, metres of a time difference); as a factor
+  // ("8.3x the configured") when the setting is not one "key value" pair.
+  static std::string learned_text(const Verdict& v) {
+    const size_t space = v.setting.rfind(' ');
+    if (space != std::string::npos && v.setting.find(' ') == space) {
+      const std::string number = v.setting.substr(space + 1);
+      char* end = nullptr;
+      const double value = std::strtod(number.c_str(), &end);
+      if (end != number.c_str() && *end == '\0' && std::isfinite(value) && value > 0)
+        return fmt(value * v.learned_factor, -3);
+    }
+    if (v.setting.empty()) return fmt(v.learned_sigma, -3);
+    return fmt(v.learned_factor, v.learned_factor < 10 ? 1 : 0) + "x the configured";
   }
   // `digits` decimals, or (digits < 0) -digits significant digits.
   static std::string fmt(double v, int digits) {

@@ -3,6 +3,7 @@
 
 #include <gtest/gtest.h>
 
+#include <numbers>
 #include <random>
 #include <string>
 
@@ -69,6 +70,31 @@ TEST(ConsistencyMonitor, TenTimesTooSmallSigmaIsNamedWithinTenSeconds) {
     } else {
       EXPECT_TRUE(m.degraded());
       EXPECT_DOUBLE_EQ(m.variance("BARO", "B1", 0.0025), 0.0025);
+    }
+  }
+}
+
+// The learned sigma is said in the setting's own units, whatever the innovations' units: a
+// heading in radians against mag_heading_sigma_deg 2, the data's noise 20 deg (10x).
+TEST(Consistency, LearnedSigmaIsSaidInTheSettingsUnits) {
+  for (const bool one_setting : {true, false}) {
+    ConsistencyMonitor m;
+    std::mt19937 rng(7);
+    std::normal_distribution<double> noise(0.0, 20.0 * std::numbers::pi / 180.0);
+    const double cfg = 2.0 * std::numbers::pi / 180.0;
+    const std::string setting = one_setting ? setting_text("mag_heading_sigma_deg", 2.0)
+                                            : "rx_sigma_ns 1 or sync_sigma_ns 2";
+    for (int i = 0; i < 200; ++i)
+      m.add_scalar("MAG", "P1", 0.05 * i, noise(rng), 0.0, cfg * cfg, false, setting);
+    const std::string p = m.problems();
+    const size_t at = p.find("(learned sigma ");
+    ASSERT_NE(at, std::string::npos) << p;
+    const std::string said = p.substr(at + 15);
+    if (one_setting) {
+      EXPECT_NEAR(std::stod(said), 20.0, 3.0) << p;  // degrees, not 0.35 (radians)
+    } else {
+      EXPECT_NEAR(std::stod(said), 10.0, 1.5) << p;
+      EXPECT_NE(said.find("x the configured)"), std::string::npos) << p;
     }
   }
 }
