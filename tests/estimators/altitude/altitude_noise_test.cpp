@@ -33,6 +33,16 @@ Site site_with(const std::string& altitude_yaml, bool stations = true) {
       "test site");
 }
 
+// The error parse_altitude_params gives for `estimators.altitude: YAML`, or "no error".
+std::string param_error(const std::string& yaml) {
+  try {
+    parse_altitude_params(site_with(yaml).estimator_params("altitude"));
+  } catch (const ConfigError& e) {
+    return std::string(e.what());
+  }
+  return std::string("no error");
+}
+
 baro_t reading(const std::string& id, utime_t t, double p, bool ref = false) {
   baro_t m;
   m.utime = t;
@@ -74,20 +84,12 @@ TEST(AltitudeNoise, TheSensorsTypeGivesItsDataSheetNoise) {
   EXPECT_EQ(p.sigma_setting("T1"), "sensors.T1.type BMP180 (pressure_sigma_pa 4)");
   EXPECT_EQ(p.sigma_setting("T2"), "sensors.T2.pressure_sigma_pa 2.5");
   EXPECT_EQ(p.sigma_setting("T9"), "pressure_sigma_pa 0.7");
-  auto error_of = [](const std::string& yaml) {
-    try {
-      parse_altitude_params(site_with(yaml).estimator_params("altitude"));
-    } catch (const ConfigError& e) {
-      return std::string(e.what());
-    }
-    return std::string("no error");
-  };
-  EXPECT_NE(error_of("{sensors: {T1: {type: BMP999}}}").find("unknown barometer type 'BMP999'"),
+  EXPECT_NE(param_error("{sensors: {T1: {type: BMP999}}}").find("unknown barometer type 'BMP999'"),
             std::string::npos);
-  EXPECT_NE(error_of("{sensors: {T1: {type: BMP280, oversampling: 1}}}").find("BMP180 only"),
+  EXPECT_NE(param_error("{sensors: {T1: {type: BMP280, oversampling: 1}}}").find("BMP180 only"),
             std::string::npos);
-  EXPECT_NE(error_of("{sensors: {T1: {sigma: 1}}}").find("sigma"), std::string::npos);
-  EXPECT_NE(error_of("{mode: absolute}").find("auto, differential or relative"),
+  EXPECT_NE(param_error("{sensors: {T1: {sigma: 1}}}").find("sigma"), std::string::npos);
+  EXPECT_NE(param_error("{mode: absolute}").find("auto, differential or relative"),
             std::string::npos);
 }
 
@@ -365,17 +367,9 @@ TEST(AltitudeStill, StillWindowZeroKeepsTheConstantVelocityFilterOnly) {
   EXPECT_EQ(f.est.stats().motion_starts, 0);
   ASSERT_FALSE(f.out.empty());
   EXPECT_NE(f.out.back().vertical_speed_mps, 0.0);  // the CV filter's own speed
-  auto error_of = [](const std::string& yaml) {
-    try {
-      parse_altitude_params(site_with(yaml).estimator_params("altitude"));
-    } catch (const ConfigError& e) {
-      return std::string(e.what());
-    }
-    return std::string("no error");
-  };
-  EXPECT_NE(error_of("{motion_sigma: 0.5}").find("motion_sigma"), std::string::npos);
-  EXPECT_NE(error_of("{still_window_s: -1}").find("still_window_s"), std::string::npos);
-  EXPECT_EQ(error_of("{still_window_s: 60, motion_window_s: 2, still_after_s: 3, "
+  EXPECT_NE(param_error("{motion_sigma: 0.5}").find("motion_sigma"), std::string::npos);
+  EXPECT_NE(param_error("{still_window_s: -1}").find("still_window_s"), std::string::npos);
+  EXPECT_EQ(param_error("{still_window_s: 60, motion_window_s: 2, still_after_s: 3, "
                      "wander_learn_s: 30}"),
             "no error");
 }
