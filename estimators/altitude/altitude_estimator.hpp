@@ -147,6 +147,11 @@ class AltitudeEstimator {
   // newest one.
   void finish();
 
+  // The run in words, for ips-replay's summary: "3 changes of height detected (still ->
+  // moving)".
+  std::string run_notes() const {
+    return std::to_string(stats_.motion_starts) + " changes of height detected (still -> moving)";
+  }
   const AltitudeStats& stats() const { return stats_; }
   DropReasons drop_reasons() const {
     DropReasons d = stats_.drop_reasons();

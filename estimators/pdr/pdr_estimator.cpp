@@ -497,6 +497,19 @@ std::string PdrEstimator::mag_summary() const {
   return buf;
 }
 
+std::string PdrEstimator::run_notes() const {
+  int64_t cadence = 0;
+  bool with_gyro = false;
+  for (const auto& [id, t] : tracks_) {
+    if (t.detector) cadence += t.detector->missed_steps();
+    with_gyro = with_gyro || !t.accel_only;
+  }
+  std::string s = std::to_string(stats_.steps) + " steps (" + std::to_string(cadence) +
+                  " counted from the walk's cadence)";
+  if (with_gyro) s += "; " + mag_summary();
+  return s;
+}
+
 void PdrEstimator::emit_step(Track& t, const std::string& tag_id, const DetectedStep& step,
                              double theta) {
   const double sl = step_length(params_.length, step);

@@ -154,6 +154,9 @@ class PdrEstimator {
   // ips-replay: "MAG: 40 heading updates used, refused: 120 field not static, 2 norm/dip,
   // 0 gated".
   std::string mag_summary() const;
+  // The run in words, for ips-replay's summary: "278 steps (3 counted from the walk's cadence);
+  // MAG: ..." (the magnetometer's account only when a device has a gyroscope).
+  std::string run_notes() const;
   // What keeps it from placing steps, in words ("" when nothing): "no gyroscope on P1: steps
   // only, heading unknown (STEP heading_known false), no POSE_PDR". For HEALTH (a lasting error)
   // and ips-replay.

@@ -108,6 +108,8 @@ int main(int argc, char** argv) {
       } else {
         spdlog::info("ips-replay: {}", a.line);
       }
+      if (!a.notes.empty() && a.messages_in > 0)
+        spdlog::info("ips-replay: {}: {}", a.name, a.notes);
       if (!a.consistency.empty())
         spdlog::info("ips-replay: {}: consistency: {}", a.name, a.consistency);
       if (!a.consistency_problems.empty())

@@ -332,6 +332,7 @@ std::vector<EstimatorAccount> ReplayHost::accounts() const {
       a.consistency_problems = est.consistency().problems();
     }
     if constexpr (requires { est.problems(); }) a.problems = est.problems();
+    if constexpr (requires { est.run_notes(); }) a.notes = est.run_notes();
     a.name = name;
     a.inputs = std::move(inputs);
     a.messages_in = counts_[index].in;

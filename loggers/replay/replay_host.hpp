@@ -63,6 +63,9 @@ struct EstimatorAccount {
   // What kept it from estimating, in its own words at the end (the estimator's problems():
   // ips-pdr "no gyroscope on P1: ...", ips-ins "T1: no stance phase ..."); "" when none.
   std::string problems;
+  // Its own account of the run (the estimator's run_notes(): ips-pdr's steps and magnetometer
+  // updates, ips-altitude's detected changes of height); "" when it has none.
+  std::string notes;
 };
 
 class ReplayHost {

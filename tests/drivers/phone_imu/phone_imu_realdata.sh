@@ -28,6 +28,8 @@ grep -qF "2500 rows read, 2500 messages written to steps.lcm, 0 rows rejected" s
   fail "steps replay: $(cat steps-replay.err)"
 grep -qE ' warning ips-replay: pdr: no gyroscope on .+: steps only, heading unknown \(STEP heading_known false\), no POSE_PDR' \
   steps-replay.err || fail "steps replay does not say the heading is unknown: $(cat steps-replay.err)"
+grep -qE ' info ips-replay: pdr: [0-9]+ steps \([0-9]+ counted from the walk.s cadence\)$' steps-replay.err ||
+  fail "steps replay does not account for the steps: $(cat steps-replay.err)"
 "$BIN/ips-export" steps-replay.lcm --channels 'STEP|POSE_PDR' --format csv --out steps-x >/dev/null 2>&1
 [ ! -e steps-x/POSE_PDR.csv ] || fail "steps: POSE_PDR without a heading"
 python3 - steps-x/STEP.csv <<'PY' || fail "steps: the STEP messages"
