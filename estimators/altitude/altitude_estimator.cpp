@@ -509,6 +509,9 @@ void AltitudeEstimator::still_update(Track& t, utime_t utime, double dt_s, doubl
   const double white = r_m2 / n + t.still_var;
   const double spread = std::isfinite(t.detect_var) ? std::max(t.detect_var, white) : white;
   const double since_s = utime_to_s(utime - t.mode_utime);
+  // The moving filter's vertical speed beyond twice its own sigma.
+  const bool speed_significant =
+      std::abs(t.filter.x(1)) > 2 * std::sqrt(std::max(0.0, t.filter.P(1, 1)));
   if (t.moving) {
     // The still hypothesis, restarted on the moving filter whenever its innovations disagree
     // (a lower bar than for leaving still: staying moving a little longer costs little).
@@ -528,14 +531,14 @@ void AltitudeEstimator::still_update(Track& t, utime_t utime, double dt_s, doubl
       t.moving_h.pop_front();
     const auto& [then_utime, then_h, then_p00] = t.moving_h.front();
     const bool slow =
-        std::abs(t.filter.x(1)) <= 2 * std::sqrt(std::max(0.0, t.filter.P(1, 1))) &&
-        utime - then_utime >= back &&
+        !speed_significant && utime - then_utime >= back &&
         std::abs(t.filter.x(0) - then_h) <= 2 * std::sqrt(p00 + then_p00);
     if (!slow) {
       t.slow_since = 0;
     } else if (t.slow_since == 0) {
       t.slow_since = utime;
     }
+    // (not since_s: a restart of the still hypothesis above moved mode_utime)
     if (utime_to_s(utime - t.mode_utime) >= params_.still_after_s && t.slow_since != 0 &&
         utime_to_s(utime - t.slow_since) >= params_.still_after_s) {
       // The still model starts from the moving filter's mean height over still_after_s (its
@@ -562,8 +565,9 @@ void AltitudeEstimator::still_update(Track& t, utime_t utime, double dt_s, doubl
   // second); the largest seen stays in the published sigma.
   if (relative_ && !t.moved && since_s >= params_.still_window_s / 4)
     t.start_error_m2 = std::max(t.start_error_m2, t.still_h * t.still_h);
-  // Learned while still; one mean counts at most 1.5x the current spread, so a slow real
-  // change (stairs at 0.1 m/s) is not learned as noise before it is detected. The detector's spread rises over
+  // Learned while still; one squared mean counts at most 4x the current spread (a variance), so
+  // a slow real change (stairs at 0.1 m/s) is not learned as noise before it is detected. The
+  // detector's spread rises over
   // wander_learn_s and falls ten times slower (the means are correlated over the wander's own
   // time scale, tens of seconds: a quick fall would forget it between two excursions); the
   // sigma's, an even average over 2 wander_learn_s.
@@ -572,9 +576,7 @@ void AltitudeEstimator::still_update(Track& t, utime_t utime, double dt_s, doubl
   // significant.
   const double lean_w = std::min(1.0, dt_s / params_.wander_learn_s);
   t.mean_lean += lean_w * (mean - t.mean_lean);
-  if (std::abs(t.mean_lean) > 0.5 * std::sqrt(spread) ||
-      std::abs(t.filter.x(1)) > 2 * std::sqrt(std::max(0.0, t.filter.P(1, 1))))
-    return;
+  if (std::abs(t.mean_lean) > 0.5 * std::sqrt(spread) || speed_significant) return;
   const double m2 = std::min(mean * mean, 4 * spread);
   if (!std::isfinite(t.mean_var)) t.mean_var = t.detect_var = white;
   const double w = std::min(1.0, dt_s / (2 * params_.wander_learn_s));

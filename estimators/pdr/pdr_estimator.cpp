@@ -401,6 +401,7 @@ void PdrEstimator::update_mag(Track& t, const std::string& tag_id, utime_t now) 
   t.seg_mark_m = t.mag_distance_m;
   t.since_accepted_m += step_m;
   const bool check_static = params_.mag_static_window_m > 0;
+  double covered = 0;  // the distance the kept steps cover
   if (check_static) {
     const bool new_segment = t.n_seg > 0;
     if (new_segment) t.segments.emplace_back(t.sum_seg / t.n_seg, step_m);
@@ -408,7 +409,6 @@ void PdrEstimator::update_mag(Track& t, const std::string& tag_id, utime_t now) 
     t.sum_seg.setZero();
     t.n_seg = 0;
     // Keep the steps covering the window: drop the oldest while the rest still covers it.
-    double covered = 0;
     for (const auto& sgm : t.segments) covered += sgm.second;
     while (t.segments.size() > 1 &&
            covered - t.segments.front().second >= params_.mag_static_window_m) {
@@ -443,13 +443,9 @@ void PdrEstimator::update_mag(Track& t, const std::string& tag_id, utime_t now) 
   }
   Eigen::Vector3d field = t.sum_mw / t.n_mw;
   if (check_static) {
-    double covered = 0;
-    std::vector<Eigen::Vector3d> means;
-    for (const auto& sgm : t.segments) {
-      covered += sgm.second;
-      means.push_back(sgm.first);
-    }
     if (covered < params_.mag_static_window_m) return;  // too few steps yet
+    std::vector<Eigen::Vector3d> means;
+    for (const auto& sgm : t.segments) means.push_back(sgm.first);
     const QuasiStaticField qs = check_quasi_static(
         means, deg_to_rad(params_.mag_static_heading_deg), params_.mag_static_norm_ut,
         deg_to_rad(params_.mag_static_dip_deg));
