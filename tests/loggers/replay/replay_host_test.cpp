@@ -469,7 +469,9 @@ TEST(ReplayHostAccounts, NanGyroIsInvalidForPdrAndIns) {
     imu_t m{};
     m.utime = kT0 + 10000 + i * 10000;
     m.source = "test";
-    m.device_id = "T1";
+    // A string, not the literal: GCC 12 at -O3 takes the literal's inlined copy into m{} for a
+    // read of uninitialised bytes (-Wmaybe-uninitialized, a false positive).
+    m.device_id = std::string("T1");
     m.device_utime = -1;
     m.accel[2] = 9.81;
     // 30 samples with a NaN gyroscope, after some with one (a device whose first samples have
