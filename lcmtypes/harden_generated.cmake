@@ -1,4 +1,7 @@
-# Hardens the C++ decoders that lcm-gen 1.3.1 emits (run as: cmake -DHEADERS=a.hpp|b.hpp -P this).
+# Hardens the C++ decoders that lcm-gen 1.3.1 emits (run as: cmake -DHEADERS=a.hpp|b.hpp
+# -DSTAGE=<lcm-gen's output folder> -DOUT=<include folder> -P this): each header named in HEADERS
+# (its path under OUT) is read from STAGE, hardened, and written to OUT only when its text differs
+# from what OUT holds (an unchanged message's header keeps its time stamp: nothing rebuilds).
 # Its generated _decodeNoHash trusts two things an attacker on the bus controls:
 #  - a string length of 0 or less: `assign(ptr, len - 1)` then asks for ~2^64 bytes and throws
 #    std::length_error out of the LCM callback (found by tests/fuzz/lcm_messages_fuzz.cpp);
@@ -8,7 +11,8 @@
 # are bounded by the bytes left; anything else is a decode error (-1), as for any short buffer.
 string(REPLACE "|" ";" HEADERS "${HEADERS}")
 foreach(h ${HEADERS})
-  file(READ ${h} text)
+  file(RELATIVE_PATH rel ${OUT} ${h})
+  file(READ ${STAGE}/${rel} text)
   string(REGEX REPLACE "if\\(__([A-Za-z0-9_]+)_len__ > maxlen - pos\\) return -1;"
          "if(__\\1_len__ < 1 || __\\1_len__ > maxlen - pos) return -1;" text "${text}")
   # Elements of string arrays use a variable named __elem_len.
@@ -32,5 +36,11 @@ foreach(h ${HEADERS})
                         "${n_string_guard} guards, ${n_resize} array resizes with "
                         "${n_array_guard} guards; extend the patterns for this lcm-gen output")
   endif()
-  file(WRITE ${h} "${text}")
+  set(old "")
+  if(EXISTS ${h})
+    file(READ ${h} old)
+  endif()
+  if(NOT old STREQUAL text)
+    file(WRITE ${h} "${text}")
+  endif()
 endforeach()
