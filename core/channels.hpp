@@ -22,6 +22,14 @@ inline constexpr const char* kTruth = "TRUTH";
 inline constexpr const char* kPoseUwb = "POSE_UWB";
 // The position a UWB module computes on board (DWM1001 PANS `lec` POS), published by its driver.
 inline constexpr const char* kPoseUwbModule = "POSE_UWB_MODULE";
+// One difference of distances between two anchors, as Loco-style TDoA systems report it
+// (uwb_tdoa_t).
+inline constexpr const char* kUwbTdoa = "UWB_TDOA";
+// The raw exchange timestamps of a two-way range, beside its UWB_RANGE (uwb_twr_timestamps_t).
+inline constexpr const char* kUwbTwrRaw = "UWB_TWR_RAW";
+// ips-uwb-twr's plain per-epoch least-squares fixes (estimators.uwb_twr.epoch_fixes): the naive
+// solution the tracker is checked against.
+inline constexpr const char* kPoseUwbEpoch = "POSE_UWB_EPOCH";
 inline constexpr const char* kPoseTdoa = "POSE_TDOA";
 inline constexpr const char* kPoseAoa = "POSE_AOA";
 inline constexpr const char* kPosePdr = "POSE_PDR";
@@ -45,6 +53,6 @@ inline bool valid_channel_name(const std::string& name) {
 inline constexpr const char* kAllKinds[] = {
     kUwbRange, kUwbRx,    kBleAoa,   kImu,     kBaro,    kInsModule, kSite,  kHealth,    kTruth,
     kPoseUwb,  kPoseTdoa, kPoseAoa,  kPosePdr, kPoseIns, kStep,      kAltitude, kClock, kPoseFused,
-    kPoseUwbModule, kSiteRequest};
+    kPoseUwbModule, kSiteRequest, kUwbTdoa, kUwbTwrRaw, kPoseUwbEpoch};
 
 }  // namespace ips::channel
