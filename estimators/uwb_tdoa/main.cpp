@@ -1,4 +1,5 @@
-// ips-uwb-tdoa: subscribes to UWB_RX, publishes POSE_TDOA per tag and CLOCK per anchor.
+// ips-uwb-tdoa: subscribes to UWB_RX (raw receptions) and UWB_TDOA (pairwise differences, as
+// Loco-style systems deliver them), publishes POSE_TDOA per tag and CLOCK per anchor.
 // `ips-uwb-tdoa rank-masters LOG...` ranks the sync masters of static-tag logs instead (004 §3).
 #include <spdlog/spdlog.h>
 
@@ -92,7 +93,8 @@ int main(int argc, char** argv) {
   CLI::App app{
       "ips-uwb-tdoa: tracks UWB tags from TDoA anchor receptions (UWB_RX): synchronises "
       "the anchor clocks to the sync master (CLOCK) and publishes the tags' positions "
-      "with covariance (POSE_TDOA).",
+      "with covariance (POSE_TDOA); or from pairwise TDoA as Loco-style systems deliver it "
+      "(UWB_TDOA, clocks synchronised upstream).",
       kProgram};
   ips::CommonOptions opts;
   ips::add_common_options(app, opts);
@@ -129,12 +131,20 @@ int main(int argc, char** argv) {
     node.subscribe<ips::uwb_rx_t>(
         opts.channel(ips::channel::kUwbRx),
         [&](const ips::uwb_rx_t& m, const std::string&) { est.on_rx(m); });
+    node.subscribe<ips::uwb_tdoa_t>(
+        opts.channel("UWB_TDOA"),  // docs/channels.md
+        [&](const ips::uwb_tdoa_t& m, const std::string&) { est.on_pair(m); });
     // Reports that gave no pose or clock, by reason, in HEALTH once a second; outliers gated and
     // blinks before the clocks are synchronised are counted without marking the process degraded.
     ips::DropHealth drop_health;
     ips::ConsistencyHealth consistency_health;
     node.add_timer(1.0, [&] {
-      drop_health.report(node, est.drop_reasons());
+      const ips::uwb_tdoa::PairStats& ps = est.pair_stats();
+      drop_health.report(node, est.drop_reasons(),
+                         ps.pairs_in == 0 ? std::string()
+                                          : "pairs used " + std::to_string(ps.pairs_used) +
+                                                ", gated " + std::to_string(ps.pairs_gated) +
+                                                ", tracks lost " + std::to_string(ps.lost));
       consistency_health.report(node, est.consistency());
     });
     return node.run();

@@ -50,7 +50,12 @@ TdoaParams parse_tdoa_params(const YamlField& s, const Site& site) {
                 "max_coast_s",
                 "publish_period_s",
                 "reorder_tolerance_s",
-                "max_tags"});
+                "max_tags",
+                "pair_sigma_m",
+                "pair_gate_sigma",
+                "pair_lost_level",
+                "pair_lost_share",
+                "pair_window_s"});
   // Every parameter is bounded, not just positive: a SITE message on the bus is outside input.
   auto in_range = [&](const char* key, double& v, double lo, double hi) {
     v = s.get_double(key, v);
@@ -115,13 +120,27 @@ TdoaParams parse_tdoa_params(const YamlField& s, const Site& site) {
   in_range("publish_period_s", p.publish_period_s, 0, 1e6);
   in_range("reorder_tolerance_s", p.reorder_tolerance_s, 0, 1e6);
   count("max_tags", p.max_tags, 1, 100000);
+  in_range("pair_sigma_m", p.pairs.pair_sigma_m, 0, 100);
+  in_range("pair_gate_sigma", p.pairs.pair_gate_sigma, 0, 1e6);
+  in_range("pair_lost_level", p.pairs.pair_lost_level, 0, 1e6);
+  in_range("pair_window_s", p.pairs.pair_window_s, 0, 60);
+  in_range("pair_lost_share", p.pairs.pair_lost_share, 0, 0.95);
+  p.pairs.force_3d = p.force_3d;
+  p.pairs.accel_psd = p.accel_psd;
+  p.pairs.init_velocity_sigma_mps = p.init_velocity_sigma_mps;
+  p.pairs.init_max_residual_m = p.init_max_residual_m;
+  p.pairs.max_coast_s = p.max_coast_s;
+  p.pairs.publish_period_s = p.publish_period_s;
+  p.pairs.reorder_tolerance_s = p.reorder_tolerance_s;
+  p.pairs.max_tags = p.max_tags;
   return p;
 }
 
 TdoaEstimator::TdoaEstimator(PoseSink pose_sink, ClockSink clock_sink, std::string source_name)
     : pose_sink_(std::move(pose_sink)),
       source_(std::move(source_name)),
-      clocks_(std::move(clock_sink), source_) {
+      clocks_(std::move(clock_sink), source_),
+      pairs_([this](const pose_t& p) { pose_sink_(p); }, source_) {
   arrivals_.reserve(64);
 }
 
@@ -140,6 +159,7 @@ void TdoaEstimator::set_site(const Site& site) {
   consistency_ = ConsistencyMonitor(co);
   consistency_.monitor_only("TDOA");
   clocks_.set_consistency(&consistency_);
+  pairs_.configure(site, params_.pairs, &consistency_);
   // A difference's variance is the receptions' and the clocks' (sync_sigma_ns): either may be off.
   rx_setting_ = setting_text("rx_sigma_ns", params_.rx_sigma_ns) + " or " +
                 setting_text("sync_sigma_ns", params_.clock.sync_sigma_ns);
@@ -155,20 +175,22 @@ void TdoaEstimator::set_site(const Site& site) {
 
 DropReasons TdoaEstimator::drop_reasons() const {
   const ClockSyncStats& c = clocks_.stats();
+  const PairStats& pr = pairs_.stats();
   DropReasons d;
-  d.add(DropReason::kNoSite, stats_.dropped_no_site);
+  d.add(DropReason::kNoSite, stats_.dropped_no_site + pr.pairs_no_site);
   d.add(DropReason::kNoAnchorsOfKind, stats_.dropped_no_anchors);
-  d.add(DropReason::kUnknownAnchor, stats_.dropped_unknown_anchor);
-  d.add(DropReason::kInvalid, stats_.dropped_invalid);
-  d.add(DropReason::kLate, stats_.dropped_late + c.dropped_late);
+  d.add(DropReason::kUnknownAnchor, stats_.dropped_unknown_anchor + pr.pairs_unknown_anchor);
+  d.add(DropReason::kInvalid, stats_.dropped_invalid + pr.pairs_invalid);
+  d.add(DropReason::kLate, stats_.dropped_late + c.dropped_late + pr.pairs_late);
   d.add(DropReason::kTimeJump, guard_.dropped());
   d.add(DropReason::kDuplicate, stats_.dropped_duplicate + c.dropped_duplicate);
-  d.add(DropReason::kTooManyTags, stats_.dropped_too_many_tags);
+  d.add(DropReason::kTooManyTags, stats_.dropped_too_many_tags + pr.pairs_too_many_tags);
   d.add(DropReason::kNoClock, stats_.rx_no_clock);
   d.add(DropReason::kUnmatchedSync, c.dropped_unmatched + c.dropped_other_master);
   d.add(DropReason::kTooFewAnchors, stats_.epochs_too_few);
-  d.add(DropReason::kInitialising, stats_.epochs_initialising);
-  d.add(DropReason::kGated, stats_.rejected_gate + stats_.rejected_geometry + c.rejected_gate);
+  d.add(DropReason::kInitialising, stats_.epochs_initialising + pr.pairs_initialising);
+  d.add(DropReason::kGated, stats_.rejected_gate + stats_.rejected_geometry + c.rejected_gate +
+                                pr.pairs_gated + pr.pairs_geometry);
   return d;
 }
 

@@ -4,7 +4,9 @@
 // time, range differences to a reference anchor, and a constant-velocity EKF per tag (2D with
 // the tag height from the site, or 3D) with Mahalanobis-gated TDoA updates (models/tdoa.hpp).
 // Tracks start, and restart after long coasting or repeated rejections, from a per-epoch
-// Levenberg-Marquardt TDoA fix (tdoa_least_squares.hpp).
+// Levenberg-Marquardt TDoA fix (tdoa_least_squares.hpp). Pairwise TDoA as Loco-style systems
+// deliver it (uwb_tdoa_t, clocks synchronised upstream) goes to a PairTracker
+// (pair_tracker.hpp) that shares the pose sink, the drop counts and the consistency monitor.
 // Pure: takes uwb_rx_t, emits pose_t and clock_t through callbacks, never reads a clock; runs on
 // message time only, so a log replayed gives the same output.
 #include <array>
@@ -25,6 +27,7 @@
 #include "core/pose_tally.hpp"
 #include "core/site.hpp"
 #include "estimators/uwb_tdoa/clock_sync.hpp"
+#include "estimators/uwb_tdoa/pair_tracker.hpp"
 
 namespace ips::uwb_tdoa {
 
@@ -69,6 +72,9 @@ struct TdoaParams {
   double publish_period_s = 0.1;      // at most one pose per tag per period
   double reorder_tolerance_s = 0.05;  // reports this far behind the tag's newest are still used
   int max_tags = 1000;                // tracks kept at most (ids off the bus)
+  // Pairwise TDoA (UWB_TDOA, pair_tracker.hpp): pair_sigma_m, pair_gate_sigma, pair_lost_level,
+  // pair_lost_share, pair_window_s; the rest shared with the raw path above.
+  PairParams pairs;
 };
 
 // Reads `estimators.uwb_tdoa` of the site; throws ConfigError on a bad value (including a
@@ -113,6 +119,10 @@ class TdoaEstimator {
   void set_site(const Site& site);
   bool has_site() const { return site_.has_value(); }
   void on_rx(const uwb_rx_t& msg);
+  // One pairwise TDoA (UWB_TDOA): tracked apart from the raw receptions' tracks (a tag is
+  // expected on one of the two), published through the same pose sink.
+  void on_pair(const uwb_tdoa_t& msg) { pairs_.on_pair(msg); }
+  const PairStats& pair_stats() const { return pairs_.stats(); }
   // Processes the blinks still waiting for more reports (at the end of a log).
   void flush();
 
@@ -190,6 +200,7 @@ class TdoaEstimator {
   TdoaStats stats_;
   TimeGuard guard_;  // per sender (core/time_guard.hpp)
   ConsistencyMonitor consistency_;
+  PairTracker pairs_;
   std::string rx_setting_;  // "rx_sigma_ns 0.17"
 };
 

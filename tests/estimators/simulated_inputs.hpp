@@ -1,6 +1,6 @@
 #pragma once
 // The estimator tests' in-process loop: a scenario through the simulator, each message of the
-// kinds a test asks for decoded and handed to its handler (SITE, TRUTH, UWB_RANGE, UWB_RX,
+// kinds a test asks for decoded and handed to its handler (SITE, TRUTH, UWB_RANGE, UWB_RX, UWB_TDOA,
 // BLE_AOA, IMU, BARO, INS_MODULE).
 #include <gtest/gtest.h>
 
@@ -14,6 +14,7 @@
 #include <ips/site_t.hpp>
 #include <ips/uwb_range_t.hpp>
 #include <ips/uwb_rx_t.hpp>
+#include <ips/uwb_tdoa_t.hpp>
 
 #include "core/site.hpp"
 #include "drivers/sim/simulator.hpp"
@@ -27,6 +28,7 @@ struct SimHandlers {
   std::function<void(const pose_t&)> truth = nullptr;
   std::function<void(const uwb_range_t&)> uwb_range = nullptr;
   std::function<void(const uwb_rx_t&)> uwb_rx = nullptr;
+  std::function<void(const uwb_tdoa_t&)> uwb_tdoa = nullptr;
   std::function<void(const ble_aoa_t&)> ble_aoa = nullptr;
   std::function<void(const imu_t&)> imu = nullptr;
   std::function<void(const baro_t&)> baro = nullptr;
@@ -53,6 +55,7 @@ inline void run_simulated(const sim::Scenario& sc, uint64_t seed, const SimHandl
     else if (e.kind == "TRUTH") hand_over(e, h.truth);
     else if (e.kind == "UWB_RANGE") hand_over(e, h.uwb_range);
     else if (e.kind == "UWB_RX") hand_over(e, h.uwb_rx);
+    else if (e.kind == "UWB_TDOA") hand_over(e, h.uwb_tdoa);
     else if (e.kind == "BLE_AOA") hand_over(e, h.ble_aoa);
     else if (e.kind == "IMU") hand_over(e, h.imu);
     else if (e.kind == "BARO") hand_over(e, h.baro);

@@ -6,6 +6,7 @@ ips_unit_test(uwb_tdoa_test
   estimators/uwb_tdoa/tdoa_estimator_test.cpp
   estimators/uwb_tdoa/tdoa_accuracy_test.cpp
   estimators/uwb_tdoa/master_ranking_test.cpp
+  estimators/uwb_tdoa/tdoa_pair_test.cpp
 )
 target_link_libraries(uwb_tdoa_test PRIVATE ips_uwb_tdoa)
 
