@@ -1,5 +1,7 @@
 // ips-import: recorded files -> messages, a driver without a device. Subcommands:
-//   ranges F...   two-way ranges (one file per anchor or one for all) -> uwb_range_t on UWB_RANGE
+//   ranges F...   two-way ranges (one file per anchor or one for all) -> uwb_range_t on UWB_RANGE,
+//                 and the exchanges' raw timestamps when the rows have them -> uwb_twr_timestamps_t
+//                 on UWB_TWR_RAW
 //   poses F       positions (truth, or an outside estimator's output) -> pose_t on --channel
 //   site FILE     a site file -> site_t on SITE at the head of a log and every S s
 // Every path reads its files whole, sorts the messages by time and writes them to a log (--out),
@@ -15,6 +17,7 @@
 #include <ips/pose_t.hpp>
 #include <ips/site_t.hpp>
 #include <ips/uwb_range_t.hpp>
+#include <ips/uwb_twr_timestamps_t.hpp>
 #include <map>
 #include <optional>
 #include <sstream>
@@ -268,7 +271,27 @@ struct RangeFlags {
   std::string anchor, site_out, site_name = "imported";
   bool with_site = false;
   double site_every = 5.0;
+  std::string range_from = "file", twr_channel = "UWB_TWR_RAW";
+  int counter_bits = 32;
 };
+
+// One line on what the timestamp columns of a file gave.
+void twr_summary(const std::string& name, const ips::import::TwrTally& t) {
+  std::string line = name + ": " + std::to_string(t.exchanges) + " exchanges with timestamps (" +
+                     std::to_string(t.ss) + " SS-TWR, " + std::to_string(t.ds) + " DS-TWR)";
+  if (t.ss > 0)
+    line += "; clock offset from " + std::to_string(t.clock.measured) + " intervals (" +
+            std::to_string(t.clock.counter_interval) + " by the counter, " +
+            std::to_string(t.clock.host_interval) + " by host time), " +
+            std::to_string(t.no_offset) + " exchanges without one yet (range uncorrected)";
+  if (t.clock.implausible > 0)
+    line += ", " + std::to_string(t.clock.implausible) + " implausible offsets dropped";
+  if (t.no_range > 0) line += "; " + std::to_string(t.no_range) + " without a plausible range";
+  if (t.bad > 0)
+    line += "; " + std::to_string(t.bad) + " rows' timestamps rejected (first: line " +
+            std::to_string(t.first_bad_line) + ": " + t.first_bad_reason + ")";
+  std::fprintf(stderr, "%s: %s\n", kProgram, line.c_str());
+}
 
 int run_ranges(const InputFlags& f, const RangeFlags& r, const ips::CommonOptions& opts) {
   ips::import::RangeOptions o;
@@ -280,7 +303,15 @@ int run_ranges(const InputFlags& f, const RangeFlags& r, const ips::CommonOption
     ips::print_fatal(kProgram, "--anchor: '" + ips::printable(r.anchor) + "' is not 1 to 32 of A-Za-z0-9_.:-");
     return kUsage;
   }
-  if (!valid_channel(f.channel)) return kUsage;
+  if (!valid_channel(f.channel) || !valid_channel(r.twr_channel)) return kUsage;
+  if (r.range_from == "timestamps") {
+    o.range_from = ips::import::RangeFrom::kTimestamps;
+  } else if (r.range_from != "file") {
+    ips::print_fatal(kProgram, "--range-from: expected file or timestamps, got '" +
+                                   ips::printable(r.range_from) + "'");
+    return kUsage;
+  }
+  o.counter_bits = r.counter_bits;
   o.columns = f.columns;
   o.tag = f.tag;
   o.anchor = r.anchor;
@@ -304,7 +335,9 @@ int run_ranges(const InputFlags& f, const RangeFlags& r, const ips::CommonOption
       if (i == 0 || t > last) last = t;
       fresh.add(f.channel, file.ranges[i]);
     }
+    for (const auto& x : file.exchanges) fresh.add(r.twr_channel, x);
     summary(path, file.tally, "ranges", file.time_unit, first, last, file.columns);
+    if (!file.exchanges.empty() || file.twr.bad > 0) twr_summary(path, file.twr);
     if (file.relative_times)
       warn(path + ": the times look relative (before 2001), kept as they are (seconds after "
                   "1970-01-01); give --file-start T to place them");
@@ -483,6 +516,19 @@ int main(int argc, char** argv) {
       ->capture_default_str()
       ->check(CLI::Range(0.0, 1e6));
   ranges->add_option("--site-name", rf.site_name, "the site's name")->capture_default_str();
+  ranges->add_option("--range-from", rf.range_from,
+                     "file: UWB_RANGE carries the file's range column; timestamps: the range "
+                     "computed from the exchange's raw timestamps (SS-TWR with the clock offset "
+                     "measured across exchanges, or DS-TWR); rows without one are rejected")
+      ->capture_default_str();
+  ranges->add_option("--counter-bits", rf.counter_bits,
+                     "width of the counter the timestamps are read modulo: 32 when the source "
+                     "keeps the low word of a DW1000's 40-bit counter, else 40")
+      ->capture_default_str()
+      ->check(CLI::Range(16, 62));
+  ranges->add_option("--twr-channel", rf.twr_channel,
+                     "channel of the exchanges' raw timestamps (uwb_twr_timestamps_t)")
+      ->capture_default_str();
 
   PoseFlags pf;
   auto* poses = app.add_subcommand(

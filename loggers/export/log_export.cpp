@@ -19,6 +19,7 @@
 #include <ips/tag_t.hpp>
 #include <ips/uwb_range_t.hpp>
 #include <ips/uwb_rx_t.hpp>
+#include <ips/uwb_twr_timestamps_t.hpp>
 #include <utility>
 
 #include "core/node.hpp"
@@ -42,6 +43,27 @@ void fields(const uwb_range_t& m, Fields& f) {
        {"range_m", m.range_m},      {"rx_power_dbm", m.rx_power_dbm},
        {"fp_power_dbm", m.fp_power_dbm}, {"quality", m.quality},
        {"seq", int64_t{m.seq}}};
+}
+
+// The stamps under their names (0 past n_stamps), in ticks of tick_s.
+void fields(const uwb_twr_timestamps_t& m, Fields& f) {
+  f = {{"utime_us", m.utime},
+       {"source", m.source},
+       {"tag_id", m.tag_id},
+       {"anchor_id", m.anchor_id},
+       {"seq", int64_t{m.seq}},
+       {"tick_s", m.tick_s},
+       {"counter_bits", int64_t{m.counter_bits}},
+       {"n_stamps", int64_t{m.n_stamps}},
+       {"poll_tx", m.stamps[0]},
+       {"poll_rx", m.stamps[1]},
+       {"resp_tx", m.stamps[2]},
+       {"resp_rx", m.stamps[3]},
+       {"final_tx", m.stamps[4]},
+       {"final_rx", m.stamps[5]},
+       {"clock_offset_ppm", m.clock_offset_ppm},
+       {"range_m", m.range_m},
+       {"reported_range_m", m.reported_range_m}};
 }
 
 void fields(const uwb_rx_t& m, Fields& f) {
@@ -283,6 +305,7 @@ std::optional<Decoded> decode_any(const void* data, size_t size) {
   if (auto d = try_flat<pose_t>(data, size, "pose_t")) return d;
   if (auto d = try_flat<imu_t>(data, size, "imu_t")) return d;
   if (auto d = try_flat<uwb_rx_t>(data, size, "uwb_rx_t")) return d;
+  if (auto d = try_flat<uwb_twr_timestamps_t>(data, size, "uwb_twr_timestamps_t")) return d;
   if (auto d = try_flat<ble_aoa_t>(data, size, "ble_aoa_t")) return d;
   if (auto d = try_flat<baro_t>(data, size, "baro_t")) return d;
   if (auto d = try_flat<step_t>(data, size, "step_t")) return d;
@@ -299,7 +322,7 @@ std::optional<Decoded> decode_any(const void* data, size_t size) {
 std::vector<std::string> known_types() {
   return {"altitude_t", "anchor_t", "baro_station_t", "baro_t",  "ble_aoa_t",   "clock_t",
           "health_t",   "imu_t",    "pose_t",         "site_t",  "step_t",      "tag_t",
-          "uwb_range_t", "uwb_rx_t"};
+          "uwb_range_t", "uwb_rx_t",  "uwb_twr_timestamps_t"};
 }
 
 std::string format_number(double v) { return shortest(v); }

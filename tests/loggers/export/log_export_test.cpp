@@ -7,6 +7,7 @@
 #include <ips/pose_t.hpp>
 #include <ips/site_t.hpp>
 #include <ips/uwb_range_t.hpp>
+#include <ips/uwb_twr_timestamps_t.hpp>
 #include <limits>
 #include <vector>
 
@@ -141,7 +142,29 @@ TEST(LogExport, EveryKnownTypeDecodesToARectangularRow) {
   ASSERT_TRUE(d);
   EXPECT_EQ(d->type, "health_t");
   EXPECT_EQ(d->rows[0].size(), d->columns->size());
-  EXPECT_EQ(known_types().size(), 14u);
+  EXPECT_EQ(known_types().size(), 15u);
+}
+
+TEST(LogExport, TwrTimestampsExportTheirStampsByName) {
+  uwb_twr_timestamps_t x{};
+  x.source = "s";
+  x.tag_id = "T1";
+  x.anchor_id = "12";
+  x.n_stamps = 4;
+  x.stamps[0] = -1976534100;
+  x.stamps[3] = 4294967295;
+  x.clock_offset_ppm = -1.14;
+  x.range_m = 30.2;
+  x.reported_range_m = std::nan("");
+  const auto bytes = encode(x);
+  const auto d = decode_any(bytes.data(), bytes.size());
+  ASSERT_TRUE(d);
+  EXPECT_EQ(d->type, "uwb_twr_timestamps_t");
+  ASSERT_EQ(d->rows.size(), 1u);
+  EXPECT_EQ(csv_line(*d->columns),
+            "utime_us,source,tag_id,anchor_id,seq,tick_s,counter_bits,n_stamps,poll_tx,poll_rx,"
+            "resp_tx,resp_rx,final_tx,final_rx,clock_offset_ppm,range_m,reported_range_m\n");
+  EXPECT_EQ(csv_line(d->rows[0]), "0,s,T1,12,0,0,0,4,-1976534100,0,0,4294967295,0,0,-1.14,30.2,NaN\n");
 }
 
 TEST(LogExport, FileStemCannotLeaveTheOutputDirectory) {
