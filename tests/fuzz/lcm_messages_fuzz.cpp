@@ -5,7 +5,8 @@
 // and never crash; UWB_RX bytes likewise into the TDoA estimator (syncs and blinks with any
 // counters, ids and times), which must publish only finite positions and clock estimates;
 // BLE_AOA, IMU and BARO sequences into the AoA, PDR and altitude estimators; a mixed sequence of
-// every input of ips-fuse into the fusion estimator (selector 16 and up).
+// every input of ips-fuse into the fusion estimator (selector 17 and up; 16 decodes
+// uwb_twr_timestamps_t).
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
@@ -19,6 +20,7 @@
 #include <ips/site_t.hpp>
 #include <ips/step_t.hpp>
 #include <ips/uwb_range_t.hpp>
+#include <ips/uwb_twr_timestamps_t.hpp>
 #include <ips/uwb_rx_t.hpp>
 #include <stdexcept>
 
@@ -237,6 +239,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     case 13: feed_aoa(d, n); break;
     case 14: feed_pdr(d, n); break;
     case 15: feed_altitude(d, n); break;
+    case 16: decode_one<ips::uwb_twr_timestamps_t>(d, n); break;
     default: feed_fuse(d, n); break;
   }
   return 0;

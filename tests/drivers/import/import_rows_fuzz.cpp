@@ -1,6 +1,8 @@
 // libFuzzer: ips-import's row readers on arbitrary text: ranges (by header, by --columns, tagged
-// lines), positions (with lever arms), and the site made of the rows' anchors. Never a crash;
-// every message is valid (finite values, valid ids), every reason printable.
+// lines), positions (with lever arms), and the site made of the rows' anchors; the raw TWR
+// timestamp columns (uwb-cucudasluv's by name, or DS-TWR by --columns), with the range taken from
+// them or from the file. Never a crash; every message is valid (finite values, valid ids), every
+// reason printable.
 #include <cmath>
 #include <cstdint>
 #include <cstdlib>
@@ -35,12 +37,29 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     ro.columns = "-,t,range,-,ax,ay,anchor";
   }
   if (mode & 8) ro.time.rate_hz = 10;
+  if (mode & 128) {
+    ro.range_from = ips::import::RangeFrom::kTimestamps;
+    ro.counter_bits = (mode & 64) ? 40 : 32;
+    if (mode & 4) {
+      ro.read.row_tag.clear();
+      ro.columns = "t,tag,anchor,poll_tx,poll_rx,resp_tx,resp_rx,final_tx,final_rx";
+    }
+  }
   const auto rf = ips::import::read_ranges(text, "fuzz", ro);
   check_printable(rf.error);
   check_printable(rf.tally.first_bad_reason);
+  check_printable(rf.twr.first_bad_reason);
   for (const auto& m : rf.ranges) {
     if (!std::isfinite(m.range_m) || m.range_m < 0 || m.range_m > ips::import::kMaxRangeM) std::abort();
     if (!ips::valid_device_id(m.tag_id) || !ips::valid_device_id(m.anchor_id)) std::abort();
+  }
+  for (const auto& x : rf.exchanges) {
+    if (x.n_stamps != 4 && x.n_stamps != 6) std::abort();
+    if (!std::isnan(x.range_m) &&
+        !(x.range_m >= ips::import::kMinStampRangeM && x.range_m <= ips::import::kMaxRangeM))
+      std::abort();
+    if (std::isinf(x.clock_offset_ppm) || !(x.tick_s > 0)) std::abort();
+    if (!ips::valid_device_id(x.tag_id) || !ips::valid_device_id(x.anchor_id)) std::abort();
   }
   if (!rf.anchors.empty()) {
     const std::string yaml = ips::import::site_yaml_from_anchors("fuzz", rf.anchors, rf.tags, {});
