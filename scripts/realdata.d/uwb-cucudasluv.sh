@@ -13,7 +13,9 @@
 # is relative to the start, the tag's height is not given). Rows: uwb_twr (POSE_UWB), fuse
 # (POSE_FUSED) when it produced poses, and the authors' own LS and ESKF outputs scored by ips-eval
 # as a check of the chain (their RMSD_results.txt figures are the baseline column). Then the
-# static ranges' error against the known distance, LOS and NLOS (rows "static LOS/NLOS", below).
+# static ranges' error against the known distance, LOS and NLOS (rows "static LOS/NLOS", below),
+# and the range our SS-TWR computes from the exchanges' raw DW1000 timestamps (UWB_TWR_RAW) against
+# the file's Distance and the known distance (rows "SS-TWR from timestamps").
 # Usage: uwb-cucudasluv.sh <realdata-folder> <work-dir> <bin-dir>
 set -euo pipefail
 DATA=$1 WORK=$2 BIN=$3
@@ -81,7 +83,8 @@ for env in LOS NLOS; do
   sdir="$DATA/Static_measurements/$env"
   [ -d "$sdir" ] || { say "static $env: no $sdir, skipped"; continue; }
   errs="$WORK/static_${env}_errors.tsv"
-  : >"$errs"
+  twr="$WORK/static_${env}_twr.tsv" twr_counts="$WORK/static_${env}_twr_counts.tsv"
+  : >"$errs"; : >"$twr"; : >"$twr_counts"
   files=0
   for f in "$sdir"/height_*/*m.csv; do
     [ -f "$f" ] || continue
@@ -101,6 +104,18 @@ for env in LOS NLOS; do
     # utime_us,source,tag_id,anchor_id,range_m,rx_power_dbm,fp_power_dbm,quality,seq
     awk -F, -v d="$d" 'NR > 1 { print d "\t" ($5 - d) "\t" ($6 - $7) }' \
       "$WORK/static_export/UWB_RANGE.csv" >>"$errs"
+    # The exchanges' timestamps (ips-import's UWB_TWR_RAW): utime_us,source,tag_id,anchor_id,seq,
+    # tick_s,counter_bits,n_stamps,poll_tx,poll_rx,resp_tx,resp_rx,final_tx,final_rx,
+    # clock_offset_ppm,range_m,reported_range_m -> D, file, range_m, Distance, the uncorrected
+    # SS-TWR range (Ra - Db)/2 (no clock offset), offset; and the count of ranges for the file.
+    n_ranges=$(($(wc -l <"$WORK/static_export/UWB_RANGE.csv") - 1))
+    if [ -f "$WORK/static_export/UWB_TWR_RAW.csv" ]; then
+      awk -F, -v d="$d" -v f="${f#"$sdir"/}" 'NR > 1 {
+          w = 2 ^ $7; ra = ($12 - $9) % w; if (ra < 0) ra += w; db = ($11 - $10) % w; if (db < 0) db += w
+          printf "%s\t%s\t%s\t%s\t%.6f\t%s\n", d, f, $16, $17, (ra - db) / 2 * $6 * 299792458.0, $15
+        }' "$WORK/static_export/UWB_TWR_RAW.csv" >>"$twr"
+    fi
+    printf '%s\t%s\n' "${f#"$sdir"/}" "$n_ranges" >>"$twr_counts"
     files=$((files + 1))
   done
   [ "$files" -gt 0 ] || { say "static $env: no Dm.csv files"; continue; }
@@ -131,5 +146,62 @@ other = ("mean error %+.3f m, std %.3f m; fit %+.3f %+.4f*D m (residual std %.3f
     mean, std, a, b, res, min(d), max(d), sys.argv[3], share(10), share(6), len(fin))
 print("\t".join(["uwb-cucudasluv", "static " + sys.argv[2], "ranges (range - D)", str(n), "%.3f" % rmse,
                  "%.3f" % ab[min(n - 1, int(0.95 * n))], "%.3f" % ab[n // 2], "%.3f" % ab[-1], other, "-"]))
+PY
+  # SS-TWR from the timestamps: error against the known distance D (N, RMSE, p95 / median / max of
+  # |error|), under "other" the residual against the file's Distance (mean, std, max |.|) with the
+  # clock offset measured across exchanges and without any, the same against D, the offsets seen,
+  # the exchanges without an offset yet (each file's first) and the rows whose stamps ips-import
+  # refused (not consistent with rtd_init/rtd_resp); the file with the largest mean residual
+  # against Distance. Per file: $WORK/static_<env>_twr_per_file.tsv.
+  python3 - "$twr" "$twr_counts" "$env" "$WORK/static_${env}_twr_per_file.tsv" <<'PY'
+import math, sys
+rows = []
+for line in open(sys.argv[1]):
+    d, f, r, rep, unc, off = line.rstrip("\n").split("\t")
+    fl = lambda v: float(v) if v.lower() not in ("nan", "-nan", "") else math.nan
+    rows.append((float(d), f, fl(r), fl(rep), float(unc), fl(off)))
+ranges = sum(int(l.split("\t")[1]) for l in open(sys.argv[2]))
+if not rows:
+    sys.exit(0)
+def stats(v):
+    n = len(v)
+    if n == 0:
+        return (0, math.nan, math.nan, math.nan)
+    m = sum(v) / n
+    return (n, m, math.sqrt(sum((x - m) ** 2 for x in v) / n), max(abs(x) for x in v))
+corr = [r for r in rows if math.isfinite(r[5]) and math.isfinite(r[2])]
+vs_dist = [r[2] - r[3] for r in corr if math.isfinite(r[3])]
+vs_dist_unc = [r[4] - r[3] for r in rows if math.isfinite(r[3])]
+vs_true = [r[2] - r[0] for r in corr]
+vs_true_unc = [r[4] - r[0] for r in rows]
+offs = sorted(r[5] for r in corr)
+per_file = {}
+for r in corr:
+    per_file.setdefault(r[1], []).append(r)
+with open(sys.argv[4], "w") as out:
+    out.write("file\tD_m\tN\tvs_distance_mean_m\tvs_distance_std_m\tvs_distance_max_m\tvs_D_mean_m\tvs_D_std_m\toffset_median_ppm\n")
+    worst = None
+    for f in sorted(per_file):
+        v = per_file[f]
+        a = stats([r[2] - r[3] for r in v if math.isfinite(r[3])])
+        b = stats([r[2] - r[0] for r in v])
+        o = sorted(r[5] for r in v)[len(v) // 2]
+        out.write("%s\t%g\t%d\t%+.4f\t%.4f\t%.4f\t%+.4f\t%.4f\t%+.3f\n" % (f, v[0][0], a[0], a[1], a[2], a[3], b[1], b[2], o))
+        if a[0] and (worst is None or abs(a[1]) > abs(worst[1])):
+            worst = (f, a[1])
+n = len(vs_true)
+ab = sorted(abs(x) for x in vs_true)
+rmse = math.sqrt(sum(x * x for x in vs_true) / n) if n else math.nan
+sd, sdu, st, stu = stats(vs_dist), stats(vs_dist_unc), stats(vs_true), stats(vs_true_unc)
+q = lambda p: offs[min(len(offs) - 1, int(p * len(offs)))] if offs else math.nan
+other = ("vs Distance: mean %+.3f, std %.3f, max %.3f m (uncorrected %+.3f, %.3f, %.3f); "
+         "vs D: mean %+.3f, std %.3f m (uncorrected %+.3f, %.3f); offset median %+.2f ppm (5-95 %% %+.2f..%+.2f); "
+         "%d files, %d exchanges, %d without an offset yet, %d rows' stamps refused; worst file %s (%+.3f m)") % (
+    sd[1], sd[2], sd[3], sdu[1], sdu[2], sdu[3], st[1], st[2], stu[1], stu[2], q(0.5), q(0.05), q(0.95),
+    len(per_file), len(rows), len(rows) - len(corr), ranges - len(rows),
+    worst[0] if worst else "-", worst[1] if worst else math.nan)
+print("\t".join(["uwb-cucudasluv", "static " + sys.argv[3], "SS-TWR from timestamps (range - D)", str(n),
+                 "%.3f" % rmse, "%.3f" % ab[min(n - 1, int(0.95 * n))], "%.3f" % ab[n // 2], "%.3f" % ab[-1],
+                 other, "-"]))
 PY
 done
