@@ -87,6 +87,13 @@ const std::vector<SensorModel>& sensor_models();
 // adding a sensor, a tag or an anchor does not change the noise of the others.
 std::mt19937_64 stream_rng(uint64_t seed, const std::string& name);
 
+// The uwb_twr model's constant range offset of one ranging pair (initiator, anchor) when its
+// section sets pair_offset_min_m / pair_offset_max_m: uniform in [min, max], from its own stream
+// ("UWB_RANGE_OFFSET T1 A3"), so that the other streams stay as they were (tests compare what an
+// estimator learns with it).
+double uwb_pair_offset_m(uint64_t seed, const std::string& initiator, const std::string& anchor,
+                         double min_m, double max_m);
+
 // Event period for a rate; at least 1 us.
 int64_t period_us(double rate_hz);
 

@@ -1,4 +1,5 @@
-// ips-uwb-twr: subscribes to UWB_RANGE, publishes POSE_UWB per tag.
+// ips-uwb-twr: subscribes to UWB_RANGE, publishes POSE_UWB per tag (and, when the site asks,
+// the plain per-epoch least-squares fixes on POSE_UWB_EPOCH).
 #include <spdlog/spdlog.h>
 
 #include "core/channels.hpp"
@@ -20,8 +21,11 @@ int main(int argc, char** argv) {
   return ips::run_reporting_errors("ips-uwb-twr", [&] {
     ips::Node node("ips-uwb-twr", opts);
     const std::string out_channel = opts.channel(ips::channel::kPoseUwb);
+    const std::string epoch_channel = opts.channel(ips::channel::kPoseUwbEpoch);
     ips::uwb_twr::TwrEstimator est(
         [&](const ips::pose_t& p) { node.publish(out_channel, p); });
+    // Only when the site asks for them (estimators.uwb_twr.epoch_fixes).
+    est.set_epoch_sink([&](const ips::pose_t& p) { node.publish(epoch_channel, p); });
     ips::provide_site(node, [&](const ips::Site& site) { est.set_site(site); });
     node.subscribe<ips::uwb_range_t>(
         opts.channel(ips::channel::kUwbRange),

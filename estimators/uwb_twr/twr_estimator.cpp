@@ -18,7 +18,8 @@ TwrParams parse_twr_params(const YamlField& s) {
                 "epoch_window_s", "init_velocity_sigma_mps", "reinit_after_rejections",
                 "max_coast_s", "publish_period_s", "reorder_tolerance_s", "max_range_m",
                 "max_tags", "learn_noise", "nlos_power_db", "nlos_power_var_scale",
-                "range_bias_m", "range_bias_per_m"});
+                "range_bias_m", "range_bias_per_m", "range_offsets_m", "learn_bias",
+                "bias_prior_sigma_m", "bias_window", "bias_max_m", "epoch_fixes"});
   // Every parameter is bounded, not just positive: a SITE message on the bus is outside input.
   auto positive = [&](const char* key, double& v) {
     v = s.get_double(key, v);
@@ -52,6 +53,21 @@ TwrParams parse_twr_params(const YamlField& s) {
       s.get_double_in("nlos_power_var_scale", p.nlos_power_var_scale, 1, 1e6);
   p.range_bias_m = s.get_double_in("range_bias_m", p.range_bias_m, -10, 10);
   p.range_bias_per_m = s.get_double_in("range_bias_per_m", p.range_bias_per_m, -0.1, 0.1);
+  const YamlField offsets = s["range_offsets_m"];
+  if (offsets.defined()) {
+    if (!offsets.is_map()) offsets.fail("expected a map of anchor id (or tag/anchor): offset in m");
+    for (const auto& kv : offsets.node()) {
+      if (!kv.first.IsScalar() || kv.first.Scalar().empty())
+        offsets.fail("expected a map of anchor id (or tag/anchor): offset in m");
+      const std::string key = kv.first.Scalar();
+      p.range_offsets_m[key] = offsets.get_double_in(key, 0.0, -10, 10);
+    }
+  }
+  p.learn_bias = s.get_bool("learn_bias", p.learn_bias);
+  p.bias_prior_sigma_m = s.get_double_in("bias_prior_sigma_m", p.bias_prior_sigma_m, 0.001, 10);
+  p.bias_window = static_cast<int>(s.get_int_in("bias_window", p.bias_window, 1, 1000000));
+  p.bias_max_m = s.get_double_in("bias_max_m", p.bias_max_m, 0, 10);
+  p.epoch_fixes = s.get_bool("epoch_fixes", p.epoch_fixes);
   p.max_tags = static_cast<int>(s.get_int("max_tags", p.max_tags));
   if (p.max_tags < 1 || p.max_tags > 100000) s["max_tags"].fail("must be in [1, 100000]");
   return p;
@@ -128,6 +144,18 @@ void TwrEstimator::on_range(const uwb_range_t& m) {
     t.height_m = t.planar ? tag->height_m : 0.0;
     t.anchor_rejections.assign(site_->anchors.size(), 0);
     t.anchor_heard_utime.assign(site_->anchors.size(), 0);
+    t.tag_id = m.tag_id;
+    std::vector<double> prior(site_->anchors.size()), prior_sigma(site_->anchors.size());
+    for (size_t k = 0; k < site_->anchors.size(); ++k) {
+      const double offset = configured_offset(m.tag_id, site_->anchors[k].id);
+      prior[k] = std::isnan(offset) ? 0.0 : offset;
+      // A configured offset is known to a few cm (a calibration); otherwise the prior's spread.
+      // Not learned: taken as known (0 unless configured).
+      prior_sigma[k] = !params_.learn_bias ? 0.0
+                       : std::isnan(offset) ? params_.bias_prior_sigma_m
+                                            : std::min(params_.bias_prior_sigma_m, 0.05);
+    }
+    t.bias.reset(prior, prior_sigma);
   }
   const auto anchor_index = static_cast<size_t>(anchor - site_->anchors.data());
   if (t.newest_utime != 0) {
@@ -139,6 +167,9 @@ void TwrEstimator::on_range(const uwb_range_t& m) {
       Track fresh;
       fresh.anchor_rejections.assign(t.anchor_rejections.size(), 0);
       fresh.anchor_heard_utime.assign(t.anchor_heard_utime.size(), 0);
+      fresh.tag_id = t.tag_id;
+      fresh.bias = t.bias;  // the radios' offsets outlive a restarted track
+      fresh.cycle_s = t.cycle_s;
       fresh.planar = t.planar;
       fresh.height_m = t.height_m;
       t = std::move(fresh);
@@ -149,14 +180,22 @@ void TwrEstimator::on_range(const uwb_range_t& m) {
   }
   if (t.first_utime == 0) t.first_utime = m.utime;
   t.newest_utime = std::max(t.newest_utime, m.utime);
-  t.anchor_heard_utime[anchor_index] = std::max(t.anchor_heard_utime[anchor_index], m.utime);
+  // The round of the anchors: how long until an anchor is heard again (a slow running mean;
+  // gaps beyond max_coast_s are outages, not the round).
+  const utime_t heard = t.anchor_heard_utime[anchor_index];
+  if (heard != 0 && m.utime > heard && m.utime - heard <= s_to_utime(params_.max_coast_s)) {
+    const double gap_s = utime_to_s(m.utime - heard);
+    t.cycle_s = t.cycle_s == 0 ? gap_s : t.cycle_s + 0.05 * (gap_s - t.cycle_s);
+  }
+  t.anchor_heard_utime[anchor_index] = std::max(heard, m.utime);
   const double range_m =
       corrected_range(m.range_m, params_.range_bias_m, params_.range_bias_per_m);
-  t.recent.push_back({m.utime, m.anchor_id, range_m});
+  t.recent.push_back({m.utime, anchor_index, range_m});
   while (t.recent.size() > 64 ||
-         (t.recent.size() > 1 &&
-          m.utime - t.recent.front().utime > s_to_utime(params_.epoch_window_s)))
+         (t.recent.size() > 1 && m.utime - t.recent.front().utime > epoch_window(t)))
     t.recent.pop_front();
+  if (epoch_sink_ && params_.epoch_fixes) publish_epoch_fix(t, m.tag_id, m.utime);
+  if (params_.learn_bias) learn_offsets(t, m.utime);
 
   if (t.initialised && m.utime - t.last_accept_utime > s_to_utime(params_.max_coast_s))
     t.initialised = false;
@@ -198,9 +237,14 @@ void TwrEstimator::update(Track& t, CvFilter<D>& f, size_t anchor_index, const u
   const bool nlos_power =
       likely_nlos_by_power(m.rx_power_dbm, m.fp_power_dbm, params_.nlos_power_db);
   if (nlos_power) noise.r_var *= params_.nlos_power_var_scale;
+  // The pair's offset removed first: the gate judges what is left (an antenna delay is not NLOS).
+  noise.r_var += t.bias.var_m2(anchor_index);
   const RangeUpdate r = range_update<D>(
       f, site_->anchors[anchor_index].position, t.height_m,
-      corrected_range(m.range_m, params_.range_bias_m, params_.range_bias_per_m), noise);
+      corrected_range(m.range_m, params_.range_bias_m, params_.range_bias_per_m) -
+          t.bias.offset_m(anchor_index),
+      noise);
+
   consistency_.add_scalar("RANGE", anchor_id, utime_to_s(m.utime), r.innovation_m, r.hph, r_cfg,
                           !r.accepted, range_setting_);
   if (!r.accepted) {
@@ -224,13 +268,136 @@ void TwrEstimator::update(Track& t, CvFilter<D>& f, size_t anchor_index, const u
   t.tally.add(r.innovation_m);
 }
 
-bool TwrEstimator::try_initialise(Track& t, utime_t now, bool only_if_elsewhere) {
+utime_t TwrEstimator::epoch_window(const Track& t) const {
+  // 1.2 rounds: the round's own jitter; at most half the coasting limit.
+  return s_to_utime(std::max(params_.epoch_window_s,
+                             std::min(1.2 * t.cycle_s, 0.5 * params_.max_coast_s)));
+}
+
+double TwrEstimator::range_offset_m(const std::string& tag_id,
+                                    const std::string& anchor_id) const {
+  const auto it = tracks_.find(tag_id);
+  if (!site_ || it == tracks_.end()) return std::numeric_limits<double>::quiet_NaN();
+  for (size_t k = 0; k < site_->anchors.size() && k < it->second.bias.size(); ++k)
+    if (site_->anchors[k].id == anchor_id) return it->second.bias.offset_m(k);
+  return std::numeric_limits<double>::quiet_NaN();
+}
+
+double TwrEstimator::configured_offset(const std::string& tag_id,
+                                       const std::string& anchor_id) const {
+  const auto& o = params_.range_offsets_m;
+  if (auto it = o.find(tag_id + "/" + anchor_id); it != o.end()) return it->second;
+  if (auto it = o.find(anchor_id); it != o.end()) return it->second;
+  return std::numeric_limits<double>::quiet_NaN();
+}
+
+bool TwrEstimator::epoch_observations(const Track& t, utime_t now, bool learned,
+                                      std::vector<RangeObservation>& obs) const {
   // The newest range per anchor within the epoch window.
-  std::map<std::string, double> latest;
+  std::map<size_t, double> latest;
   for (const auto& e : t.recent)
-    if (now - e.utime <= s_to_utime(params_.epoch_window_s)) latest[e.anchor_id] = e.range_m;
+    if (now - e.utime <= epoch_window(t)) latest[e.anchor_index] = e.range_m;
+  obs.clear();
+  for (const auto& [k, r] : latest) {
+    double offset = t.bias.offset_m(k);
+    if (!learned) {
+      offset = configured_offset(t.tag_id, site_->anchors[k].id);
+      if (std::isnan(offset)) offset = 0;
+    }
+    obs.push_back({site_->anchors[k].position, r - offset});
+  }
+  const int dims = t.planar ? 2 : 3;
+  return static_cast<int>(obs.size()) >= dims + 1;
+}
+
+void TwrEstimator::publish_epoch_fix(Track& t, const std::string& tag_id, utime_t now) {
+  if (t.last_epoch_fix_utime != 0 &&
+      now - t.last_epoch_fix_utime < s_to_utime(params_.publish_period_s))
+    return;
+  // Every anchor heard lately, as for a start (try_initialise): the plain solution of a full set.
+  int heard = 0;
+  for (utime_t last : t.anchor_heard_utime)
+    heard += last != 0 && now - last <= s_to_utime(params_.max_coast_s);
   std::vector<RangeObservation> obs;
-  for (const auto& [id, r] : latest) obs.push_back({site_->find_anchor(id)->position, r});
+  if (!epoch_observations(t, now, false, obs) || static_cast<int>(obs.size()) < heard) return;
+  MultilaterationOptions o;
+  o.fixed_height = t.planar;
+  o.height_m = t.height_m;
+  const MultilaterationResult res = multilaterate(obs, o, params_.init_solver);
+  if (!res.ok) return;
+  t.last_epoch_fix_utime = now;
+  pose_t p{};
+  p.utime = now;
+  p.source = source_ + "/epoch";
+  p.tag_id = tag_id;
+  const int dims = t.planar ? 2 : 3;
+  const double var = std::max(params_.range_sigma_m * params_.range_sigma_m,
+                              res.residual_rms_m * res.residual_rms_m);
+  for (int k = 0; k < 3; ++k) p.position[k] = res.position(k);
+  if (t.planar) p.position[2] = t.height_m;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j)
+      p.position_cov[3 * i + j] = i < dims && j < dims ? res.covariance_unit(i, j) * var : 0.0;
+  for (double& v : p.velocity) v = std::numeric_limits<double>::quiet_NaN();
+  p.heading_rad = std::numeric_limits<double>::quiet_NaN();
+  p.num_used = static_cast<int32_t>(obs.size());
+  p.residual_m = res.residual_rms_m;
+  p.status = pose_t::STATUS_OK | (t.planar ? pose_t::STATUS_2D : 0);
+  ++stats_.epoch_fixes_out;
+  epoch_sink_(p);
+}
+
+void TwrEstimator::learn_offsets(Track& t, utime_t now) {
+  // One fix per epoch: consecutive fixes from overlapping epochs would share ranges.
+  if (t.last_bias_utime != 0 && now - t.last_bias_utime < epoch_window(t)) return;
+  int heard = 0;
+  for (utime_t last : t.anchor_heard_utime)
+    heard += last != 0 && now - last <= s_to_utime(params_.max_coast_s);
+  std::vector<RangeObservation> obs;
+  const int dims = t.planar ? 2 : 3;
+  // A residual needs a range more than the fix does; every anchor heard lately (one missing
+  // would leave the fix free to absorb another's offset differently).
+  if (!epoch_observations(t, now, true, obs) || static_cast<int>(obs.size()) < dims + 2 ||
+      static_cast<int>(obs.size()) < heard)
+    return;
+  MultilaterationOptions o;
+  o.fixed_height = t.planar;
+  o.height_m = t.height_m;
+  // From the track when there is one: the same minimum, not a mirror image.
+  Eigen::Vector3d start = Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
+  if (t.initialised)
+    start = t.planar ? Eigen::Vector3d(t.f2.x(0), t.f2.x(1), t.height_m)
+                     : Eigen::Vector3d(t.f3.x.head<3>());
+  const MultilaterationResult res = multilaterate(obs, o, params_.init_solver, start);
+  t.last_bias_utime = now;
+  // An NLOS range in the set shows as a large residual: such an epoch teaches nothing.
+  if (!res.ok || res.residual_rms_m > 3.0 * params_.range_sigma_m) return;
+  std::map<size_t, std::pair<utime_t, double>> latest;
+  for (const auto& e : t.recent)
+    if (now - e.utime <= epoch_window(t)) latest[e.anchor_index] = {e.utime, e.range_m};
+  Eigen::Vector3d p = res.position;
+  if (t.planar) p.z() = t.height_m;
+  std::vector<size_t> idx;
+  Eigen::MatrixXd J(static_cast<Eigen::Index>(latest.size()), dims);
+  Eigen::VectorXd residual(static_cast<Eigen::Index>(latest.size()));
+  double r_var = 0;
+  Eigen::Index i = 0;
+  for (const auto& [k, taken] : latest) {
+    const Eigen::Vector3d d = p - site_->anchors[k].position;
+    const double predicted = std::max(d.norm(), 1e-6);
+    J.row(i) = (d.head(dims) / predicted).transpose();
+    residual(i) = taken.second - t.bias.offset_m(k) - predicted;
+    r_var = std::max(r_var, consistency_.variance("RANGE", site_->anchors[k].id,
+                                                  params_.range_sigma_m * params_.range_sigma_m));
+    idx.push_back(k);
+    ++i;
+  }
+  t.bias.add_epoch(idx, J, residual, r_var, 1.0 - 1.0 / params_.bias_window, params_.bias_max_m);
+}
+
+bool TwrEstimator::try_initialise(Track& t, utime_t now, bool only_if_elsewhere) {
+  std::vector<RangeObservation> obs;
+  epoch_observations(t, now, true, obs);
   const int dims = t.planar ? 2 : 3;
   // Wait for an epoch with every anchor the tag has been heard by lately: with one range less
   // than it could have, a wrong local minimum (the mirror image across two anchors' line) can fit

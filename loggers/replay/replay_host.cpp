@@ -48,6 +48,11 @@ ReplayHost::ReplayHost(const ReplayOptions& opts, const CommonOptions& channels,
       emit(out, p);
     });
     produced_channels_.insert(out);
+    // The per-epoch fixes, when the site asks for them (estimators.uwb_twr.epoch_fixes): not
+    // counted as the tracker's estimates.
+    const std::string epoch_out = channels_.channel(channel::kPoseUwbEpoch);
+    twr_->set_epoch_sink([this, epoch_out](const pose_t& p) { emit(epoch_out, p); });
+    produced_channels_.insert(epoch_out);
   }
   if (wanted(kUwbTdoa)) {
     const std::string pose_out = channels_.channel(channel::kPoseTdoa);

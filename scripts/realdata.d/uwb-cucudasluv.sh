@@ -5,13 +5,14 @@
 #   ips-import poses trajectory.csv --channel TRUTH --tag T1 --into ranges.lcm --out CASE.lcm
 #   ips-import poses LS.csv   --channel POSE_AUTHORS_LS   --tag T1 --into CASE.lcm   (their output,
 #   ips-import poses ESKF.csv --channel POSE_AUTHORS_ESKF --tag T1 --into CASE.lcm    scored by us)
-#   ips-replay CASE.lcm --out CASE-replay.lcm
+#   ips-replay CASE.lcm --site SITE+epoch_fixes --out CASE-replay.lcm
 #   ips-eval CASE-replay.lcm --json
 # The anchors' positions come from the range rows themselves (field.x,y,z, constant per anchor);
 # the RTK trajectory is in the same frame (no --offset/--rotate-deg: the ranges' residuals against
 # it have a median of a few cm), and so are the authors' LS.csv and ESKF.csv. Scored 2D (the RTK z
 # is relative to the start, the tag's height is not given). Rows: uwb_twr (POSE_UWB), fuse
-# (POSE_FUSED) when it produced poses, and the authors' own LS and ESKF outputs scored by ips-eval
+# (POSE_FUSED) when it produced poses, ips-uwb-twr's plain per-epoch least-squares fixes
+# (POSE_UWB_EPOCH, the naive solution), and the authors' own LS and ESKF outputs scored by ips-eval
 # as a check of the chain (their RMSD_results.txt figures are the baseline column). Then the
 # static ranges' error against the known distance, LOS and NLOS (rows "static LOS/NLOS", below),
 # and the range our SS-TWR computes from the exchanges' raw DW1000 timestamps (UWB_TWR_RAW) against
@@ -42,7 +43,10 @@ for dir in "$DATA"/Dynamic_measurements/{LOS,NLOS}/Trajectory_{A,B}/Case_*; do
   for est in LS ESKF; do
     [ -f "$dir/$est.csv" ] && run "$BIN/ips-import" poses "$dir/$est.csv" --channel "POSE_AUTHORS_$est" --tag T1 --into "$w.lcm"
   done
-  run "$BIN/ips-replay" "$w.lcm" --out "$w-replay.lcm"
+  # The site as imported, plus ips-uwb-twr's plain per-epoch least-squares fixes (POSE_UWB_EPOCH):
+  # the naive solution on the same ranges that the tracker and ips-fuse must beat (issue 27).
+  printf 'estimators:\n  uwb_twr:\n    epoch_fixes: true\n' >>"$w-site.yaml"
+  run "$BIN/ips-replay" "$w.lcm" --site "$w-site.yaml" --out "$w-replay.lcm"
   run "$BIN/ips-eval" "$w-replay.lcm" --by tag
   "$BIN/ips-eval" "$w-replay.lcm" --json >"$w-eval.json" 2>>"$w-eval.err" ||
     { say "failed: ips-eval --json on $name: $(tail -1 "$w-eval.err")"; exit 1; }
@@ -54,11 +58,11 @@ for dir in "$DATA"/Dynamic_measurements/{LOS,NLOS}/Trajectory_{A,B}/Case_*; do
   python3 - "$w-eval.json" "$name" "$baseline" <<'PY'
 import json, sys
 data = json.load(open(sys.argv[1]))
-names = {"POSE_UWB": "uwb_twr", "POSE_FUSED": "fuse",
+names = {"POSE_UWB": "uwb_twr", "POSE_FUSED": "fuse", "POSE_UWB_EPOCH": "per-epoch LS",
          "POSE_AUTHORS_LS": "authors' LS (scored here)", "POSE_AUTHORS_ESKF": "authors' ESKF (scored here)"}
 def f(v):
     return "-" if v is None else "%.3f" % v
-order = ["POSE_UWB", "POSE_FUSED", "POSE_AUTHORS_LS", "POSE_AUTHORS_ESKF"]
+order = ["POSE_UWB", "POSE_FUSED", "POSE_UWB_EPOCH", "POSE_AUTHORS_LS", "POSE_AUTHORS_ESKF"]
 rows = {r["channel"]: r for r in data["rows"] if r["tag"] == "T1"}
 for ch in order:
     r = rows.get(ch)

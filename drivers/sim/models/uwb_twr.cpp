@@ -30,24 +30,30 @@ struct UwbTwrParams {
   double max_range_m = 100.0;
   double nlos_episode_s = 0.0;    // 0: independent outliers; > 0: mean NLOS episode length
   double anchor_pairs_rate_hz = 0.0;  // per anchor pair; 0: no anchor-to-anchor ranging
+  // A biased radio: each pair's own constant offset, uniform in [min, max] (real DW1000 pairs:
+  // +0.08 to +0.32 m, antenna delays); 0 and 0: none.
+  double pair_offset_min_m = 0.0;
+  double pair_offset_max_m = 0.0;
 };
 
 // One ranging pair: a walker's tag, or an anchor acting as the initiator, to an anchor.
 class UwbTwrSource : public PeriodicSource {
  public:
   UwbTwrSource(const UwbTwrParams& p, double rate_hz, const TagTrajectory& walker,
-               const Anchor& anchor, int64_t phase_us, std::mt19937_64 rng)
+               const Anchor& anchor, int64_t phase_us, std::mt19937_64 rng, double offset_m)
       : PeriodicSource(period_us(rate_hz), phase_us),
         p_(p),
+        offset_m_(offset_m),
         dt_s_(1.0 / rate_hz),
         initiator_id_(walker.tag_id),
         walker_(&walker),
         anchor_(anchor),
         rng_(std::move(rng)) {}
   UwbTwrSource(const UwbTwrParams& p, double rate_hz, const Anchor& initiator, const Anchor& anchor,
-               int64_t phase_us, std::mt19937_64 rng)
+               int64_t phase_us, std::mt19937_64 rng, double offset_m)
       : PeriodicSource(period_us(rate_hz), phase_us),
         p_(p),
+        offset_m_(offset_m),
         dt_s_(1.0 / rate_hz),
         initiator_id_(initiator.id),
         initiator_position_(initiator.position),
@@ -83,7 +89,7 @@ class UwbTwrSource : public PeriodicSource {
       episode_bias_m_ = draw_bias;
     }
     if (u_loss < p_.loss_probability || true_range > p_.max_range_m) return false;
-    double r = true_range + p_.bias_m + p_.noise_sigma_m * noise;
+    double r = true_range + p_.bias_m + offset_m_ + p_.noise_sigma_m * noise;
     if (in_nlos_) r += episode_bias_m_;
     uwb_range_t m;
     m.utime = t;
@@ -99,6 +105,7 @@ class UwbTwrSource : public PeriodicSource {
 
  private:
   UwbTwrParams p_;
+  double offset_m_;  // this pair's constant offset (pair_offset_min_m / max)
   double dt_s_;
   bool in_nlos_ = false;
   double episode_bias_m_ = 0;
@@ -113,7 +120,8 @@ class UwbTwrSource : public PeriodicSource {
 SourceList make(const YamlField& f, const SimWorld& world) {
   f.check_keys({"enabled", "rate_hz", "noise_sigma_m", "bias_m", "nlos_probability",
                 "nlos_bias_min_m", "nlos_bias_max_m", "loss_probability", "max_range_m",
-                "nlos_episode_s", "anchor_rates_hz", "anchor_pairs_rate_hz"});
+                "nlos_episode_s", "anchor_rates_hz", "anchor_pairs_rate_hz",
+                "pair_offset_min_m", "pair_offset_max_m"});
   UwbTwrParams p;
   p.rate_hz = param_in_range(f, "rate_hz", p.rate_hz, 0.01, 1000);
   p.noise_sigma_m = param_in_range(f, "noise_sigma_m", p.noise_sigma_m, 0, 100);
@@ -124,6 +132,9 @@ SourceList make(const YamlField& f, const SimWorld& world) {
   p.loss_probability = param_in_range(f, "loss_probability", p.loss_probability, 0, 1);
   p.max_range_m = param_in_range(f, "max_range_m", p.max_range_m, 0, 1e6);
   p.nlos_episode_s = param_in_range(f, "nlos_episode_s", p.nlos_episode_s, 0, 3600);
+  p.pair_offset_min_m = param_in_range(f, "pair_offset_min_m", p.pair_offset_min_m, -10, 10);
+  p.pair_offset_max_m =
+      param_in_range(f, "pair_offset_max_m", p.pair_offset_min_m, p.pair_offset_min_m, 10);
   p.anchor_pairs_rate_hz = f.get_double("anchor_pairs_rate_hz", p.anchor_pairs_rate_hz);
   if (!(p.anchor_pairs_rate_hz == 0 ||
         (p.anchor_pairs_rate_hz >= 0.01 && p.anchor_pairs_rate_hz <= 1000)))
@@ -150,7 +161,9 @@ SourceList make(const YamlField& f, const SimWorld& world) {
     for (const Anchor* a : anchors)
       out.push_back(std::make_unique<UwbTwrSource>(
           p, rates.get_double(a->id, p.rate_hz), w, *a, (slot++ * period) / slots + 1000,
-          stream_rng(world.seed, "UWB_RANGE " + w.tag_id + " " + a->id)));
+          stream_rng(world.seed, "UWB_RANGE " + w.tag_id + " " + a->id),
+          uwb_pair_offset_m(world.seed, w.tag_id, a->id, p.pair_offset_min_m,
+                            p.pair_offset_max_m)));
   // Anchor pairs after every tag source, each in its own slot of the pair period (offset by half
   // a millisecond from the tag slots' 1 ms so that the two schedules rarely coincide).
   if (p.anchor_pairs_rate_hz > 0) {
@@ -163,7 +176,9 @@ SourceList make(const YamlField& f, const SimWorld& world) {
         out.push_back(std::make_unique<UwbTwrSource>(
             p, p.anchor_pairs_rate_hz, *anchors[i], *anchors[j],
             (pair_slot++ * pair_period) / pairs + 1500,
-            stream_rng(world.seed, "UWB_RANGE_PAIR " + anchors[i]->id + " " + anchors[j]->id)));
+            stream_rng(world.seed, "UWB_RANGE_PAIR " + anchors[i]->id + " " + anchors[j]->id),
+            uwb_pair_offset_m(world.seed, anchors[i]->id, anchors[j]->id, p.pair_offset_min_m,
+                              p.pair_offset_max_m)));
   }
   return out;
 }
@@ -171,5 +186,12 @@ SourceList make(const YamlField& f, const SimWorld& world) {
 }  // namespace
 
 SensorModel uwb_twr_sensor_model() { return {"uwb_twr", &make}; }
+
+double uwb_pair_offset_m(uint64_t seed, const std::string& initiator, const std::string& anchor,
+                         double min_m, double max_m) {
+  if (min_m == 0 && max_m == 0) return 0.0;
+  std::mt19937_64 rng = stream_rng(seed, "UWB_RANGE_OFFSET " + initiator + " " + anchor);
+  return std::uniform_real_distribution<double>(min_m, max_m)(rng);
+}
 
 }  // namespace ips::sim
