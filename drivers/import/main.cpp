@@ -3,6 +3,7 @@
 //                 and the exchanges' raw timestamps when the rows have them -> uwb_twr_timestamps_t
 //                 on UWB_TWR_RAW
 //   poses F       positions (truth, or an outside estimator's output) -> pose_t on --channel
+//   tdoa F...     pairwise TDoA (Loco/Crazyflie, the UTIL dataset) -> uwb_tdoa_t on UWB_TDOA
 //   site FILE     a site file -> site_t on SITE at the head of a log and every S s
 // Every path reads its files whole, sorts the messages by time and writes them to a log (--out),
 // into an existing log (--into), or onto the bus (as fast as possible, or paced with --speed).
@@ -17,6 +18,7 @@
 #include <ips/pose_t.hpp>
 #include <ips/site_t.hpp>
 #include <ips/uwb_range_t.hpp>
+#include <ips/uwb_tdoa_t.hpp>
 #include <ips/uwb_twr_timestamps_t.hpp>
 #include <map>
 #include <optional>
@@ -35,6 +37,7 @@
 #include "drivers/import/pose_rows.hpp"
 #include "drivers/import/range_rows.hpp"
 #include "drivers/import/site_rows.hpp"
+#include "drivers/import/tdoa_rows.hpp"
 #include "loggers/eval/dwell_file.hpp"
 
 namespace {
@@ -384,6 +387,51 @@ int run_ranges(const InputFlags& f, const RangeFlags& r, const ips::CommonOption
   return deliver(f, opts, fresh, site, r.site_every);
 }
 
+// --- tdoa ------------------------------------------------------------------------------------
+
+int run_tdoa(const InputFlags& f, const std::vector<std::string>& files,
+             const ips::CommonOptions& opts) {
+  ips::import::TdoaOptions o;
+  if (const std::string err = reader_options(f, o.read, o.time, o.unit); !err.empty()) {
+    ips::print_fatal(kProgram, err);
+    return kUsage;
+  }
+  if (!valid_channel(f.channel)) return kUsage;
+  o.columns = f.columns;
+  o.tag = f.tag;
+  ips::ImportOutput fresh;
+  for (const std::string& path : files) {
+    const auto text = read_file(path);
+    if (!text) return kUsage;
+    o.source = std::string(kProgram) + ":" + std::filesystem::path(path).filename().string();
+    const ips::import::TdoaFile file = ips::import::read_tdoa(*text, path, o);
+    if (!file.error.empty()) {
+      ips::print_fatal(kProgram, file.error);
+      return kImportFailed;
+    }
+    int64_t first = 0, last = 0;
+    for (size_t i = 0; i < file.pairs.size(); ++i) {
+      const int64_t t = file.pairs[i].utime;
+      if (i == 0 || t < first) first = t;
+      if (i == 0 || t > last) last = t;
+      fresh.add(f.channel, file.pairs[i]);
+    }
+    summary(path, file.tally, "differences", file.time_unit, first, last, file.columns);
+    std::string anchors;
+    for (const auto& a : file.anchors) anchors += (anchors.empty() ? "" : " ") + a;
+    std::fprintf(stderr, "%s: %s: anchors %s", kProgram, ips::printable(path).c_str(),
+                 ips::printable(anchors).c_str());
+    if (file.other_rows > 0)
+      std::fprintf(stderr, "; %lld rows without a difference (other sensors) skipped",
+                   static_cast<long long>(file.other_rows));
+    std::fprintf(stderr, "\n");
+    if (file.relative_times)
+      warn(path + ": the times look relative (before 2001), kept as they are (seconds after "
+                  "1970-01-01); give --file-start T to place them");
+  }
+  return deliver(f, opts, fresh, std::nullopt, 0);
+}
+
 // --- poses -----------------------------------------------------------------------------------
 
 struct PoseFlags {
@@ -490,8 +538,8 @@ int run_site(const InputFlags& f, const std::string& site_path, double every_s,
 
 int main(int argc, char** argv) {
   CLI::App app{"ips-import: recorded files -> messages (a driver without a device): two-way "
-               "ranges, positions (truth or another system's estimates), and a site written into "
-               "a log. Output is sorted by time and depends only on the files.",
+               "ranges, pairwise TDoA, positions (truth or another system's estimates), and a site "
+               "written into a log. Output is sorted by time and depends only on the files.",
                kProgram};
   app.require_subcommand(1);
   app.fallthrough();  // --lcm-url and --log-level after the subcommand too
@@ -559,6 +607,22 @@ int main(int argc, char** argv) {
       ->capture_default_str()
       ->check(CLI::Range(0.01, 1000.0));
 
+  InputFlags tdoa_flags;
+  std::vector<std::string> tdoa_files;
+  tdoa_flags.channel = "UWB_TDOA";  // docs/channels.md
+  auto* tdoa = app.add_subcommand(
+      "tdoa", "recorded pairwise TDoA (Loco-style: Crazyflie TDoA2/TDoA3, the UTIL dataset) -> "
+              "uwb_tdoa_t on UWB_TDOA; rows of time, anchor_a, anchor_b, diff = distance to b - "
+              "distance to a [, sigma]");
+  tdoa->add_option("FILES", tdoa_files, "TDoA files (merged in time order)")->required();
+  add_input_flags(*tdoa, tdoa_flags);
+  tdoa->add_option("--channel", tdoa_flags.channel, "output channel")->capture_default_str();
+  tdoa->footer(
+      "Columns (--columns, '-' skips): t, a, b, diff, sigma, quality, seq, tag; by default by the "
+      "header's names, else t,a,b,diff. The UTIL dataset's flight CSVs (t_tdoa, idA, idB, "
+      "tdoa_meas, and other sensors' columns) are read by their header; their other sensors' "
+      "rows are skipped. Give --tag when the file has no tag column.");
+
   std::string site_path;
   double site_every = 5.0;
   auto* site = app.add_subcommand(
@@ -575,6 +639,7 @@ int main(int argc, char** argv) {
   if (!ips::parse_command_line(app, opts, argc, argv, rc)) return rc;
   if (ranges->parsed()) return run_ranges(ranges_flags, rf, opts);
   if (poses->parsed()) return run_poses(poses_flags, pf, opts);
+  if (tdoa->parsed()) return run_tdoa(tdoa_flags, tdoa_files, opts);
   if (!site_flags.out.empty() && site_flags.out == site_flags.into) {
     ips::print_fatal(kProgram, "--out and --into are the same file: leave --out out to replace the log in place");
     return kUsage;
