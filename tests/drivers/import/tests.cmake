@@ -34,11 +34,3 @@ add_test(NAME import_twr_realdata
          COMMAND ${CMAKE_CURRENT_SOURCE_DIR}/drivers/import/import_twr_realdata.sh
                  ${CMAKE_RUNTIME_OUTPUT_DIRECTORY} ${PROJECT_SOURCE_DIR})
 set_tests_properties(import_twr_realdata PROPERTIES LABELS integration TIMEOUT 120)
-
-# The raw DW1000 timestamps of uwb-cucudasluv's static rows (committed excerpt) through ips-import
-# ranges and ips-export: UWB_TWR_RAW beside UWB_RANGE, the SS-TWR range against the file's Distance,
-# --range-from timestamps.
-add_test(NAME import_twr_realdata
-         COMMAND ${CMAKE_CURRENT_SOURCE_DIR}/drivers/import/import_twr_realdata.sh
-                 ${CMAKE_RUNTIME_OUTPUT_DIRECTORY} ${PROJECT_SOURCE_DIR})
-set_tests_properties(import_twr_realdata PROPERTIES LABELS integration TIMEOUT 120)
