@@ -14,7 +14,8 @@ bool fits_counter(int64_t v, int bits) {
 
 int64_t counter_elapsed(int64_t later, int64_t earlier, int bits) {
   const uint64_t mask = (uint64_t{1} << bits) - 1;
-  return static_cast<int64_t>((static_cast<uint64_t>(later) - static_cast<uint64_t>(earlier)) & mask);
+  return static_cast<int64_t>((static_cast<uint64_t>(later) - static_cast<uint64_t>(earlier)) &
+                              mask);
 }
 
 int64_t counter_diff(int64_t a, int64_t b, int bits) {
@@ -80,9 +81,9 @@ std::optional<double> ClockOffsetTracker::update(const std::string& key, int64_t
       from_counter = true;
     }
     // The anchor's advance less the tag's: small, read modulo the wrap.
-    const double d = static_cast<double>(counter_diff(counter_elapsed(poll_rx, p.poll_rx, bits),
-                                                      counter_elapsed(poll_tx, p.poll_tx, bits),
-                                                      bits));
+    const double d =
+        static_cast<double>(counter_diff(counter_elapsed(poll_rx, p.poll_rx, bits),
+                                         counter_elapsed(poll_tx, p.poll_tx, bits), bits));
     const double r = length > 0 ? d / length : std::numeric_limits<double>::quiet_NaN();
     if (std::isfinite(r) && std::fabs(r) * 1e6 <= options_.max_abs_ppm) {
       ++tally_.measured;

@@ -23,8 +23,8 @@ constexpr double kTick = kDw1000TickS;
 // A free-running counter: rate 1 + drift (relative to true time), a start offset, read modulo
 // 2^bits and stored as the chip would (unsigned).
 struct Clock {
-  double drift = 0;     // e.g. 20e-6
-  double start_s = 0;   // the counter's reading at true time 0, s
+  double drift = 0;    // e.g. 20e-6
+  double start_s = 0;  // the counter's reading at true time 0, s
   int bits = 40;
   int64_t at(double t) const {
     const double ticks = std::floor((start_s + t * (1.0 + drift)) / kTick);
@@ -194,9 +194,10 @@ TEST(ClockOffsetTracker, AnImplausibleOffsetIsCountedNotUsed) {
 }
 
 // Three consecutive exchanges of uwb-cucudasluv Static_measurements/LOS/height_100.0cm/30m.csv
-// (its first three data rows; DW1000, the low 32 bits of each stamp, stored signed): host time, Distance, and
-// resp_rx_ts, poll_tx_ts, resp_tx_ts, poll_rx_ts. The interval's offset is about -1.1 ppm, and
-// SS-TWR corrected with it lands within 3 cm of the device's Distance; uncorrected, ~20 cm long.
+// (its first three data rows; DW1000, the low 32 bits of each stamp, stored signed): host time,
+// Distance, and resp_rx_ts, poll_tx_ts, resp_tx_ts, poll_rx_ts. The interval's offset is about -1.1
+// ppm, and SS-TWR corrected with it lands within 3 cm of the device's Distance; uncorrected, ~20 cm
+// long.
 TEST(TwrTimestamps, RealDw1000RowsMatchTheDevicesDistance) {
   struct RealRow {
     double t, distance;
@@ -362,8 +363,8 @@ TEST(ImportTwrTimestamps, DsTwrRowsByColumns) {
   const double metres[] = {4.0, 17.5, 42.25};
   for (int i = 0; i < 3; ++i) {
     const double t = 1723715046.0 + i * 0.1;
-    const Exchange e = exchange(tag, anchor, 5.0 + i * 0.1, metres[i] / kSpeedOfLight, 0.4e-3,
-                                1.7e-3);
+    const Exchange e =
+        exchange(tag, anchor, 5.0 + i * 0.1, metres[i] / kSpeedOfLight, 0.4e-3, 1.7e-3);
     char line[256];
     std::snprintf(line, sizeof line, "%.6f,T9,A2,%lld,%lld,%lld,%lld,%lld,%lld\n", t,
                   static_cast<long long>(e.s.poll_tx), static_cast<long long>(e.s.poll_rx),
