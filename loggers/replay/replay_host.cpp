@@ -10,6 +10,7 @@
 #include <ips/step_t.hpp>
 #include <ips/uwb_range_t.hpp>
 #include <ips/uwb_rx_t.hpp>
+#include <ips/uwb_tdoa_t.hpp>
 
 #include "core/channels.hpp"
 #include "core/node.hpp"
@@ -281,6 +282,14 @@ void ReplayHost::process(const std::string& channel, int64_t timestamp, const ui
       ++counts_[kTdoaIndex].in;
       tdoa_->on_rx(m);
     }
+  } else if (tdoa_ && channel == channels_.channel("UWB_TDOA")) {  // pairwise TDoA
+    uwb_tdoa_t m;
+    if (!decode_message(m, data, size)) {
+      ++stats_.undecodable;
+      return;
+    }
+    ++counts_[kTdoaIndex].in;
+    tdoa_->on_pair(m);
   } else if ((aoa_ || fuse_) && channel == channels_.channel(channel::kBleAoa)) {
     ble_aoa_t m;
     if (!decode_message(m, data, size)) {
@@ -359,7 +368,12 @@ std::vector<EstimatorAccount> ReplayHost::accounts() const {
     out.push_back(std::move(a));
   };
   if (twr_) account(kTwrIndex, kUwbTwr, ch(channel::kUwbRange), *twr_);
-  if (tdoa_) account(kTdoaIndex, kUwbTdoa, ch(channel::kUwbRx), *tdoa_);
+  // Raw receptions, or pairwise differences (UWB_TDOA) when the log had only those.
+  if (tdoa_)
+    account(kTdoaIndex, kUwbTdoa,
+            tdoa_->pair_stats().pairs_in > 0 && tdoa_->stats().rx_in == 0 ? ch("UWB_TDOA")
+                                                                           : ch(channel::kUwbRx),
+            *tdoa_);
   if (aoa_) account(kAoaIndex, kAoa, ch(channel::kBleAoa), *aoa_);
   if (pdr_) account(kPdrIndex, kPdr, ch(channel::kImu), *pdr_);
   if (ins_) account(kInsIndex, kIns, ch(channel::kImu), *ins_);

@@ -24,3 +24,10 @@ add_test(NAME uwb_tdoa_live_netns
                  ${CMAKE_RUNTIME_OUTPUT_DIRECTORY})
 set_tests_properties(uwb_tdoa_live_netns PROPERTIES LABELS integration TIMEOUT 180
                                                     SKIP_RETURN_CODE 77 RESOURCE_LOCK cpu_heavy)
+
+# Pairwise TDoA through the programs: ips-sim --scenario loco-tdoa -> ips-replay -> ips-eval (no
+# network): RMSE bound, the gated pairs of the NLOS anchor in the account.
+add_test(NAME uwb_tdoa_pairs_replay
+         COMMAND ${CMAKE_CURRENT_SOURCE_DIR}/estimators/uwb_tdoa/uwb_tdoa_pairs_replay.sh
+                 ${CMAKE_RUNTIME_OUTPUT_DIRECTORY})
+set_tests_properties(uwb_tdoa_pairs_replay PROPERTIES LABELS integration TIMEOUT 120)
