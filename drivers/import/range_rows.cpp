@@ -32,8 +32,8 @@ const std::vector<table::KnownColumn>& range_columns() {
       {"resp_rx", "resprx|resprxts|resprxtime|resprxtimestamp|responserx|responserxts"},
       {"final_tx", "finaltx|finaltxts|finaltxtime|finaltxtimestamp"},
       {"final_rx", "finalrx|finalrxts|finalrxtime|finalrxtimestamp"},
-      {"rtd_init", "rtdinit|roundtrip|rtdinitiator"},
-      {"rtd_resp", "rtdresp|replytime|rtdresponder"},
+      {"rtd_init", "rtdinit|rtdinitiator"},
+      {"rtd_resp", "rtdresp|rtdresponder"},
   };
   return known;
 }
@@ -142,7 +142,8 @@ RangeFile read_ranges(std::string_view text, const std::string& name, const Rang
     }
     if (columns.has("ax") != columns.has("ay"))
       return "anchor positions need both ax and ay (columns " + columns.describe() + ")";
-    bool any_stamp = columns.has("rtd_init") || columns.has("rtd_resp");
+    // rtd_init/rtd_resp alone (no stamps) are not used.
+    bool any_stamp = false;
     for (const char* c : kStampColumns) any_stamp = any_stamp || columns.has(c);
     for (int k = 0; k < 4 && any_stamp; ++k)
       if (!columns.has(kStampColumns[k]))

@@ -348,6 +348,12 @@ TEST(ImportTwrTimestamps, IncompleteStampColumnsAreAnError) {
   EXPECT_NE(f.error.find("timestamp columns need poll_tx, poll_rx, resp_tx and resp_rx"),
             std::string::npos)
       << f.error;
+  // rtd_init and rtd_resp without the stamps are not used, and no error.
+  const import::RangeFile h = import::read_ranges(
+      "t,range,anchor,rtd_init,rtd_resp\n1723715046.1,3.0,A,72118944,72105990\n", "h.csv", o);
+  EXPECT_EQ(h.error, "");
+  EXPECT_EQ(h.ranges.size(), 1u);
+  EXPECT_TRUE(h.exchanges.empty());
   o.range_from = import::RangeFrom::kTimestamps;
   const import::RangeFile g =
       import::read_ranges("t,range,anchor\n1723715046.1,3.0,A\n", "g.csv", o);
