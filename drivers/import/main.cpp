@@ -274,7 +274,7 @@ struct RangeFlags {
   std::string anchor, site_out, site_name = "imported";
   bool with_site = false;
   double site_every = 5.0;
-  std::string range_from = "file", twr_channel = "UWB_TWR_RAW";
+  std::string range_from = "file", twr_channel = ips::channel::kUwbTwrRaw;
   int counter_bits = 32;
 };
 
