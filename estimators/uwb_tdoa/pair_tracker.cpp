@@ -68,12 +68,12 @@ namespace {
 
 // The fix of all `pairs`, the worst pair trimmed while the RMS residual exceeds max_residual_m.
 PairFix trimmed_fix(std::vector<PairObservation> pairs, bool fixed_height, double height_m,
-                    double max_residual_m) {
+                    double max_residual_m, int min_pairs) {
   PairFix fix;
   const int dims = fixed_height ? 2 : 3;
   // Two pairs more than unknowns, always: with one redundant pair a wrong set can still fit
   // (two pairs of anchors above one another say little in plan), with none any set fits.
-  while (static_cast<int>(pairs.size()) >= dims + 3) {
+  while (static_cast<int>(pairs.size()) >= min_pairs) {
     // Starts: the centroid of the anchors named, then 1 m from each toward the centroid.
     std::vector<Eigen::Vector3d> anchors;
     for (const auto& o : pairs) {
@@ -104,7 +104,7 @@ PairFix trimmed_fix(std::vector<PairObservation> pairs, bool fixed_height, doubl
     }
     if (!std::isfinite(best)) return fix;
     const double rms = std::sqrt(best / static_cast<double>(pairs.size()));
-    if (rms <= max_residual_m || static_cast<int>(pairs.size()) <= dims + 3) {
+    if (rms <= max_residual_m || static_cast<int>(pairs.size()) <= min_pairs) {
       if (rms > max_residual_m) return fix;
       Eigen::MatrixXd J(static_cast<Eigen::Index>(pairs.size()), dims);
       for (size_t k = 0; k < pairs.size(); ++k) {
@@ -144,12 +144,13 @@ bool same(const Eigen::Vector3d& a, const Eigen::Vector3d& b) { return (a - b).n
 }  // namespace
 
 PairFix solve_pair_fix(std::vector<PairObservation> pairs, bool fixed_height, double height_m,
-                       double max_residual_m, double noise_sigma_m) {
+                       double max_residual_m, double noise_sigma_m, int min_pairs) {
   const int dims = fixed_height ? 2 : 3;
-  if (static_cast<int>(pairs.size()) < dims + 3) return {};
+  min_pairs = std::max(min_pairs, dims + 2);
+  if (static_cast<int>(pairs.size()) < min_pairs) return {};
   // 1. All pairs, untrimmed: good when nothing is biased.
   const double clean = std::min(max_residual_m, 2.0 * noise_sigma_m);
-  PairFix all = trimmed_fix(pairs, fixed_height, height_m, 1e9);
+  PairFix all = trimmed_fix(pairs, fixed_height, height_m, 1e9, min_pairs);
   if (all.ok && all.residual_rms_m <= clean) return all;
   // 2. NLOS is per anchor (an obstructed path biases every pair it is in): leave each anchor's
   //    pairs out in turn and keep the cleanest fix that still has a redundant pair.
@@ -165,14 +166,14 @@ PairFix solve_pair_fix(std::vector<PairObservation> pairs, bool fixed_height, do
       std::vector<PairObservation> rest;
       for (const auto& o : pairs)
         if (!same(o.a, left_out) && !same(o.b, left_out)) rest.push_back(o);
-      if (static_cast<int>(rest.size()) < dims + 3) continue;
-      const PairFix f = trimmed_fix(std::move(rest), fixed_height, height_m, 1e9);
+      if (static_cast<int>(rest.size()) < min_pairs) continue;
+      const PairFix f = trimmed_fix(std::move(rest), fixed_height, height_m, 1e9, min_pairs);
       if (f.ok && (!best.ok || f.residual_rms_m < best.residual_rms_m)) best = f;
     }
   }
   if (best.ok && best.residual_rms_m <= clean) return best;
   // 3. Else trim the worst pairs one by one down to the residual allowed.
-  return trimmed_fix(std::move(pairs), fixed_height, height_m, max_residual_m);
+  return trimmed_fix(std::move(pairs), fixed_height, height_m, max_residual_m, min_pairs);
 }
 
 PairTracker::PairTracker(PoseSink sink, std::string source_name)
@@ -300,13 +301,16 @@ void PairTracker::try_initialise(const std::string& tag_id, Track& t, utime_t no
     return;
   }
   // Three differences more than unknowns (an NLOS anchor's two pairs can be left out and the
-  // residual still mean something), from enough anchors.
-  if (static_cast<int>(obs.size()) < dims + 4 || static_cast<int>(anchors.size()) < dims + 3) {
+  // residual still mean something), from enough anchors; a small site (4 anchors in 2D: TDoA2
+  // gives 4 pairs) asks for what it can give, and cannot leave an anchor out.
+  const int n_site = static_cast<int>(anchor_ids_.size());
+  if (static_cast<int>(obs.size()) < std::min(dims + 4, n_site) ||
+      static_cast<int>(anchors.size()) < std::min(dims + 3, n_site)) {
     ++stats_.pairs_initialising;
     return;
   }
   const PairFix fix = solve_pair_fix(std::move(obs), t.planar, t.height_m, p_.init_max_residual_m,
-                                     p_.pair_sigma_m);
+                                     p_.pair_sigma_m, std::min(dims + 3, n_site));
   // A fix far outside the anchors' box (2 m margin) is a wrong solution of a bad set: wait.
   bool inside = fix.ok;
   for (int k = 0; k < dims && inside; ++k) {

@@ -76,10 +76,11 @@ struct PairFix {
 // each anchor, the lowest cost kept), robust to NLOS: the fix of all pairs when its RMS residual
 // is within 2 noise_sigma_m; else the cleanest fix with one anchor's pairs left out (an
 // obstructed anchor biases every pair it is in) when that one is; else pairs with the largest
-// residual dropped one by one while the RMS exceeds max_residual_m, never below dims + 3 pairs
-// (a set with one redundant pair or none can fit a wrong place). ok when the fix found is within max_residual_m.
+// residual dropped one by one while the RMS exceeds max_residual_m, never below min_pairs (at
+// least dims + 2; the tracker asks dims + 3 where the site has the anchors: a set with one
+// redundant pair can fit a wrong place). ok when the fix found is within max_residual_m.
 PairFix solve_pair_fix(std::vector<PairObservation> pairs, bool fixed_height, double height_m,
-                       double max_residual_m, double noise_sigma_m);
+                       double max_residual_m, double noise_sigma_m, int min_pairs);
 
 class PairTracker {
  public:

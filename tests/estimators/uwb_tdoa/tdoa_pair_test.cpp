@@ -38,9 +38,9 @@ constexpr const char* kSite = R"(site:
 // A scenario of `duration_s` with the tag on `trajectory` (YAML) and `pairs` (YAML map text) as
 // the uwb_tdoa_pairs section.
 sim::Scenario scenario(const std::string& trajectory, const std::string& pairs,
-                       double duration_s) {
+                       double duration_s, const char* site = kSite) {
   const std::string text = "name: loco-pairs\nduration_s: " + std::to_string(duration_s) + "\n" +
-                           kSite + "trajectories:\n  - tag: T1\n    height_m: 1.2\n" + trajectory +
+                           site + "trajectories:\n  - tag: T1\n    height_m: 1.2\n" + trajectory +
                            "sensors:\n  truth:\n    rate_hz: 50\n  uwb_tdoa_pairs: " + pairs + "\n";
   return sim::parse_scenario_text(text, "tdoa_pair_test");
 }
@@ -166,6 +166,28 @@ TEST(TdoaPairs, RandomNlosBiasesAreGated) {
       run(scenario(kWalk, "{noise_sigma_m: 0.05, nlos_probability: 0.1}", 60), 6);
   print("walk, 10 % NLOS -3.9..-0.2 m, seed 6", r);
   EXPECT_LE(r.row.rmse_h, 0.15);
+}
+
+// A small Loco set-up: 4 anchors at one height, TDoA2 (4 distinct pairs, 3 independent): the
+// start asks for what such a site can give.
+TEST(TdoaPairs, FourAnchorSite) {
+  static const char* kFour = R"(site:
+  name: four
+  anchors:
+    - {id: D1, kind: uwb_tdoa, position: [0.3, 0.3, 2.6]}
+    - {id: D2, kind: uwb_tdoa, position: [9.7, 0.3, 2.6]}
+    - {id: D3, kind: uwb_tdoa, position: [9.7, 7.7, 2.6]}
+    - {id: D4, kind: uwb_tdoa, position: [0.3, 7.7, 2.6]}
+  tags:
+    - {id: T1, height_m: 1.2}
+)";
+  const Result st = run(scenario(standing_at(6.5, 2.0), "{noise_sigma_m: 0.05}", 20, kFour), 8);
+  print("4 anchors, static (6.5, 2.0) seed 8", st);
+  EXPECT_EQ(st.stats.initialisations, 1);
+  EXPECT_LE(st.row.rmse_h, 0.15);
+  const Result w = run(scenario(kWalk, "{noise_sigma_m: 0.05}", 60, kFour), 8);
+  print("4 anchors, walk seed 8", w);
+  EXPECT_LE(w.row.rmse_h, 0.15);
 }
 
 // The first fix converges from anywhere inside the site: the tag standing at points over the
