@@ -5,8 +5,9 @@
 // and never crash; UWB_RX bytes likewise into the TDoA estimator (syncs and blinks with any
 // counters, ids and times), which must publish only finite positions and clock estimates;
 // BLE_AOA, IMU and BARO sequences into the AoA, PDR and altitude estimators; a mixed sequence of
-// every input of ips-fuse into the fusion estimator (selector 17 and up; 16 decodes
-// uwb_twr_timestamps_t).
+// every input of ips-fuse into the fusion estimator (selector 19 and up; 16 decodes
+// uwb_twr_timestamps_t, 17 uwb_tdoa_t; 18 feeds a sequence of uwb_tdoa_t, pairwise TDoA, into the
+// TDoA estimator's pair tracker, which must publish only finite positions).
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
@@ -22,6 +23,7 @@
 #include <ips/uwb_range_t.hpp>
 #include <ips/uwb_twr_timestamps_t.hpp>
 #include <ips/uwb_rx_t.hpp>
+#include <ips/uwb_tdoa_t.hpp>
 #include <stdexcept>
 
 #include "core/node.hpp"
@@ -114,6 +116,19 @@ void feed_tdoa(const uint8_t* data, size_t size) {
   est.set_site(tdoa_site());
   for_each_message<ips::uwb_rx_t>(data, size, [&](const ips::uwb_rx_t& m) { est.on_rx(m); });
   est.flush();
+}
+
+void feed_tdoa_pairs(const uint8_t* data, size_t size) {
+  ips::uwb_tdoa::TdoaEstimator est(
+      [](const ips::pose_t& p) {
+        for (double v : p.position)
+          if (!std::isfinite(v)) throw std::logic_error("non-finite pairwise TDoA position");
+        for (double v : p.position_cov)
+          if (!std::isfinite(v)) throw std::logic_error("non-finite pairwise TDoA covariance");
+      },
+      [](const ips::clock_t&) {});
+  est.set_site(tdoa_site());
+  for_each_message<ips::uwb_tdoa_t>(data, size, [&](const ips::uwb_tdoa_t& m) { est.on_pair(m); });
 }
 
 // A sequence of ble_aoa_t through the AoA estimator, once as the EKF and once per epoch (LM).
@@ -240,6 +255,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     case 14: feed_pdr(d, n); break;
     case 15: feed_altitude(d, n); break;
     case 16: decode_one<ips::uwb_twr_timestamps_t>(d, n); break;
+    case 17: decode_one<ips::uwb_tdoa_t>(d, n); break;
+    case 18: feed_tdoa_pairs(d, n); break;
     default: feed_fuse(d, n); break;
   }
   return 0;
