@@ -8,6 +8,7 @@
 
 #include "core/geometry.hpp"
 #include "core/multilateration.hpp"
+#include "core/device_text.hpp"
 #include "core/text_escape.hpp"
 #include "estimators/aoa/models/aoa_bearing.hpp"
 #include "estimators/uwb_twr/models/uwb_range.hpp"
@@ -637,6 +638,36 @@ bool FuseEstimator::have_site_for_raw() {
 
 void FuseEstimator::on_rx(const uwb_rx_t& m) {
   if (have_site_for_raw()) tdoa_.on_rx(m);  // its blinks come back through on_tdoa_epoch
+}
+
+void FuseEstimator::on_pair(const uwb_tdoa_t& m) {
+  if (!have_site_for_raw()) return;
+  // Applied to the track first (as a blink goes before its hosted fix); the hosted pair tracker
+  // then counts it (its drops are this process's) and, for a tag without a track, starts one.
+  const Anchor* a = site_->find_anchor(m.anchor_a);
+  const Anchor* b = site_->find_anchor(m.anchor_b);
+  const bool usable = a && b && a != b && a->enabled && b->enabled && a->kind == "uwb_tdoa" &&
+                      b->kind == "uwb_tdoa" && std::isfinite(m.diff_m) &&
+                      std::abs(m.diff_m) <= (b->position - a->position).norm() + 1.0 &&
+                      plausible_utime(m.utime) && valid_device_id(m.tag_id) &&
+                      (std::isnan(m.sigma_m) || (m.sigma_m > 0 && m.sigma_m <= 100));
+  if (usable) {
+    Track* t = track_for_checked(m.tag_id, m.utime, tdoa_.time_stats().reanchors_back,
+                                 tdoa_reanchors_back_);
+    if (t && t->initialised) {
+      const double sigma = std::isnan(m.sigma_m) ? tdoa_.params().pairs.pair_sigma_m
+                                                 : static_cast<double>(m.sigma_m);
+      Measurement meas;
+      meas.kind = Measurement::Kind::kTdoa;
+      meas.t = m.utime;
+      meas.source = kSrcTdoa;
+      meas.group.emplace<TdoaArrivals>(pair_arrivals(a->position, b->position, m.diff_m,
+                                                     sigma * sigma));
+      t->tight_tdoa = true;
+      add(m.tag_id, *t, meas);
+    }
+  }
+  tdoa_.on_pair(m);
 }
 
 void FuseEstimator::on_tdoa_epoch(const uwb_tdoa::TdoaEpoch& e) {

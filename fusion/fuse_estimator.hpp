@@ -50,6 +50,7 @@
 #include "fusion/fuse_filter.hpp"
 #include "fusion/gyro_heading.hpp"
 #include "fusion/models/tdoa.hpp"
+#include "fusion/models/tdoa_pair.hpp"
 
 namespace ips::fusion {
 
@@ -140,6 +141,9 @@ class FuseEstimator {
   bool has_site() const { return site_.has_value(); }
   void on_range(const uwb_range_t& m);
   void on_rx(const uwb_rx_t& m);  // UWB_RX: TDoA blinks and anchor syncs
+  // UWB_TDOA: one pairwise difference (models/tdoa_pair.hpp), tightly coupled; the hosted pair
+  // tracker's first pose starts a tag that has nothing else.
+  void on_pair(const uwb_tdoa_t& m);
   void on_aoa(const ble_aoa_t& m);  // BLE_AOA
   // Live: closes the angle epochs whose window ended by `now` (the bus went quiet).
   void flush_angles(utime_t now) { aoa_.flush(now); }

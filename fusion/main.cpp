@@ -59,6 +59,10 @@ int main(int argc, char** argv) {
                                   [&](const ips::uwb_rx_t& m, const std::string&) {
                                     est.on_rx(m);
                                   });
+    node.subscribe<ips::uwb_tdoa_t>(opts.channel("UWB_TDOA"),  // docs/channels.md
+                                    [&](const ips::uwb_tdoa_t& m, const std::string&) {
+                                      est.on_pair(m);
+                                    });
     // An advertisement's angles are fused when its epoch closes: at the next event, or when the
     // bus has been quiet for the epoch window (message time estimated from the host clock).
     ips::utime_t last_aoa_utime = 0, last_aoa_host = 0;

@@ -282,14 +282,20 @@ void ReplayHost::process(const std::string& channel, int64_t timestamp, const ui
       ++counts_[kTdoaIndex].in;
       tdoa_->on_rx(m);
     }
-  } else if (tdoa_ && channel == channels_.channel("UWB_TDOA")) {  // pairwise TDoA
+  } else if ((tdoa_ || fuse_) && channel == channels_.channel("UWB_TDOA")) {  // pairwise TDoA
     uwb_tdoa_t m;
     if (!decode_message(m, data, size)) {
       ++stats_.undecodable;
       return;
     }
-    ++counts_[kTdoaIndex].in;
-    tdoa_->on_pair(m);
+    if (fuse_) {
+      ++counts_[kFuseIndex].in;
+      fuse_->on_pair(m);
+    }
+    if (tdoa_) {
+      ++counts_[kTdoaIndex].in;
+      tdoa_->on_pair(m);
+    }
   } else if ((aoa_ || fuse_) && channel == channels_.channel(channel::kBleAoa)) {
     ble_aoa_t m;
     if (!decode_message(m, data, size)) {
