@@ -19,7 +19,8 @@ TwrParams parse_twr_params(const YamlField& s) {
                 "max_coast_s", "publish_period_s", "reorder_tolerance_s", "max_range_m",
                 "max_tags", "learn_noise", "nlos_power_db", "nlos_power_var_scale",
                 "range_bias_m", "range_bias_per_m", "range_offsets_m", "learn_bias",
-                "bias_prior_sigma_m", "bias_window", "bias_max_m", "epoch_fixes"});
+                "bias_prior_sigma_m", "bias_pair_sigma_m", "bias_window", "bias_max_m",
+                "epoch_fixes"});
   // Every parameter is bounded, not just positive: a SITE message on the bus is outside input.
   auto positive = [&](const char* key, double& v) {
     v = s.get_double(key, v);
@@ -65,6 +66,7 @@ TwrParams parse_twr_params(const YamlField& s) {
   }
   p.learn_bias = s.get_bool("learn_bias", p.learn_bias);
   p.bias_prior_sigma_m = s.get_double_in("bias_prior_sigma_m", p.bias_prior_sigma_m, 0.001, 10);
+  p.bias_pair_sigma_m = s.get_double_in("bias_pair_sigma_m", p.bias_pair_sigma_m, 0.001, 10);
   p.bias_window = static_cast<int>(s.get_int_in("bias_window", p.bias_window, 1, 1000000));
   p.bias_max_m = s.get_double_in("bias_max_m", p.bias_max_m, 0, 10);
   p.epoch_fixes = s.get_bool("epoch_fixes", p.epoch_fixes);
@@ -146,16 +148,19 @@ void TwrEstimator::on_range(const uwb_range_t& m) {
     t.anchor_heard_utime.assign(site_->anchors.size(), 0);
     t.tag_id = m.tag_id;
     std::vector<double> prior(site_->anchors.size()), prior_sigma(site_->anchors.size());
+    std::vector<bool> common(site_->anchors.size());
     for (size_t k = 0; k < site_->anchors.size(); ++k) {
       const double offset = configured_offset(m.tag_id, site_->anchors[k].id);
       prior[k] = std::isnan(offset) ? 0.0 : offset;
-      // A configured offset is known to a few cm (a calibration); otherwise the prior's spread.
-      // Not learned: taken as known (0 unless configured).
+      // A configured offset is known to a few cm (a calibration); otherwise a common part
+      // (bias_prior_sigma_m) and the pair's own (bias_pair_sigma_m). Not learned: taken as
+      // known (0 unless configured).
+      common[k] = std::isnan(offset);
       prior_sigma[k] = !params_.learn_bias ? 0.0
-                       : std::isnan(offset) ? params_.bias_prior_sigma_m
-                                            : std::min(params_.bias_prior_sigma_m, 0.05);
+                       : std::isnan(offset) ? params_.bias_pair_sigma_m
+                                            : std::min(params_.bias_pair_sigma_m, 0.05);
     }
-    t.bias.reset(prior, prior_sigma);
+    t.bias.reset(prior, prior_sigma, common, params_.bias_prior_sigma_m);
   }
   const auto anchor_index = static_cast<size_t>(anchor - site_->anchors.data());
   if (t.newest_utime != 0) {
@@ -238,7 +243,8 @@ void TwrEstimator::update(Track& t, CvFilter<D>& f, size_t anchor_index, const u
       likely_nlos_by_power(m.rx_power_dbm, m.fp_power_dbm, params_.nlos_power_db);
   if (nlos_power) noise.r_var *= params_.nlos_power_var_scale;
   // The pair's offset removed first: the gate judges what is left (an antenna delay is not NLOS).
-  noise.r_var += t.bias.var_m2(anchor_index);
+  // Its variance is not added to the range's: while it is being learned the consistency
+  // monitor may see innovations too large, which is what they are.
   const RangeUpdate r = range_update<D>(
       f, site_->anchors[anchor_index].position, t.height_m,
       corrected_range(m.range_m, params_.range_bias_m, params_.range_bias_per_m) -
@@ -348,49 +354,68 @@ void TwrEstimator::publish_epoch_fix(Track& t, const std::string& tag_id, utime_
 }
 
 void TwrEstimator::learn_offsets(Track& t, utime_t now) {
-  // One fix per epoch: consecutive fixes from overlapping epochs would share ranges.
+  // Only on a running track (its velocity moves the ranges to one time, its position picks the
+  // minimum), one fix per epoch: consecutive fixes from overlapping epochs would share ranges.
+  if (!t.initialised) return;
   if (t.last_bias_utime != 0 && now - t.last_bias_utime < epoch_window(t)) return;
   int heard = 0;
   for (utime_t last : t.anchor_heard_utime)
     heard += last != 0 && now - last <= s_to_utime(params_.max_coast_s);
-  std::vector<RangeObservation> obs;
   const int dims = t.planar ? 2 : 3;
+  std::map<size_t, std::pair<utime_t, double>> latest;  // newest (time, range) per anchor
+  for (const auto& e : t.recent)
+    if (now - e.utime <= epoch_window(t)) latest[e.anchor_index] = {e.utime, e.range_m};
   // A residual needs a range more than the fix does; every anchor heard lately (one missing
   // would leave the fix free to absorb another's offset differently).
-  if (!epoch_observations(t, now, true, obs) || static_cast<int>(obs.size()) < dims + 2 ||
-      static_cast<int>(obs.size()) < heard)
-    return;
+  const int m = static_cast<int>(latest.size());
+  if (m < dims + 2 || m < heard) return;
+  Eigen::Vector3d track = Eigen::Vector3d::Zero(), v = Eigen::Vector3d::Zero();
+  if (t.planar) {
+    track << t.f2.x(0), t.f2.x(1), t.height_m;
+    v.head<2>() = t.f2.x.tail<2>();
+  } else {
+    track = t.f3.x.head<3>();
+    v = t.f3.x.tail<3>();
+  }
+  // The ranges were taken one anchor after another: each is moved to `now` along the track's
+  // velocity (the radial part), or a moving tag's slot order would be learned as offsets.
+  std::vector<RangeObservation> obs;
+  std::vector<size_t> idx;
+  for (const auto& [k, taken] : latest) {
+    const Eigen::Vector3d d = track - site_->anchors[k].position;
+    const double radial = d.norm() > 1e-6 ? d.dot(v) / d.norm() : 0.0;
+    obs.push_back({site_->anchors[k].position,
+                   taken.second + radial * utime_to_s(now - taken.first) -
+                       t.bias.offset_m(k)});
+    idx.push_back(k);
+  }
   MultilaterationOptions o;
   o.fixed_height = t.planar;
   o.height_m = t.height_m;
-  // From the track when there is one: the same minimum, not a mirror image.
-  Eigen::Vector3d start = Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
-  if (t.initialised)
-    start = t.planar ? Eigen::Vector3d(t.f2.x(0), t.f2.x(1), t.height_m)
-                     : Eigen::Vector3d(t.f3.x.head<3>());
-  const MultilaterationResult res = multilaterate(obs, o, params_.init_solver, start);
+  // From the track: the same minimum, not a mirror image.
+  const MultilaterationResult res = multilaterate(obs, o, params_.init_solver, track);
   t.last_bias_utime = now;
-  // An NLOS range in the set shows as a large residual: such an epoch teaches nothing.
+  // An NLOS range in the set shows as a large residual: such an epoch teaches nothing. Nor does a
+  // fix the track does not cover (the track is wrong, or the fix is: either way the residuals
+  // are not the offsets').
   if (!res.ok || res.residual_rms_m > 3.0 * params_.range_sigma_m) return;
-  std::map<size_t, std::pair<utime_t, double>> latest;
-  for (const auto& e : t.recent)
-    if (now - e.utime <= epoch_window(t)) latest[e.anchor_index] = {e.utime, e.range_m};
   Eigen::Vector3d p = res.position;
   if (t.planar) p.z() = t.height_m;
-  std::vector<size_t> idx;
-  Eigen::MatrixXd J(static_cast<Eigen::Index>(latest.size()), dims);
-  Eigen::VectorXd residual(static_cast<Eigen::Index>(latest.size()));
+  const double track_var = t.planar ? t.f2.P.topLeftCorner<2, 2>().trace()
+                                    : t.f3.P.topLeftCorner<3, 3>().trace();
+  const double fix_var = res.covariance_unit.topLeftCorner(dims, dims).trace() *
+                         params_.range_sigma_m * params_.range_sigma_m;
+  if ((p - track).head(dims).squaredNorm() > 9.0 * (track_var + fix_var)) return;
+  Eigen::MatrixXd J(m, dims);
+  Eigen::VectorXd residual(m);
   double r_var = 0;
-  Eigen::Index i = 0;
-  for (const auto& [k, taken] : latest) {
-    const Eigen::Vector3d d = p - site_->anchors[k].position;
+  for (int i = 0; i < m; ++i) {
+    const Eigen::Vector3d d = p - obs[static_cast<size_t>(i)].anchor;
     const double predicted = std::max(d.norm(), 1e-6);
     J.row(i) = (d.head(dims) / predicted).transpose();
-    residual(i) = taken.second - t.bias.offset_m(k) - predicted;
-    r_var = std::max(r_var, consistency_.variance("RANGE", site_->anchors[k].id,
+    residual(i) = obs[static_cast<size_t>(i)].range_m - predicted;
+    r_var = std::max(r_var, consistency_.variance("RANGE", site_->anchors[idx[static_cast<size_t>(i)]].id,
                                                   params_.range_sigma_m * params_.range_sigma_m));
-    idx.push_back(k);
-    ++i;
   }
   t.bias.add_epoch(idx, J, residual, r_var, 1.0 - 1.0 / params_.bias_window, params_.bias_max_m);
 }

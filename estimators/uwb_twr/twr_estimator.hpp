@@ -68,11 +68,9 @@ struct TwrParams {
   // offset looks like NLOS to the asymmetric gate. bias_prior_sigma_m: its spread before any
   // range (an offset not configured); bias_window: ranges averaged at most (the offset drifts
   // with temperature over minutes); bias_max_m: the learned offset's bound.
-  // Off by default for now: on the unbiased simulated lab the learned offsets still pick up the
-  // epochs' slot order (ranges taken one anchor after another, not moved to one time) and the
-  // lab's 0.12 m bound is lost on 3 of 6 seeds (tests/estimators/uwb_twr/range_bias_test.cpp).
-  bool learn_bias = false;
-  double bias_prior_sigma_m = 0.2;
+  bool learn_bias = true;
+  double bias_prior_sigma_m = 0.2;  // the pairs' common part (the tag's delay), before any range
+  double bias_pair_sigma_m = 0.07;  // each pair's own part around it (the anchors' delays)
   int bias_window = 300;
   double bias_max_m = 0.6;
   // Publish a plain per-epoch least-squares fix (the newest range per anchor in the epoch, the

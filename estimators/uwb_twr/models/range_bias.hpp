@@ -11,7 +11,8 @@
 // epoch's geometry can tell from a shift of the position. Stacking the epochs, b solves the
 // joint least squares of all positions and offsets with the positions eliminated (Schur
 // complement): (sum M + P) b = sum (r + M b_used) + P b0, P the prior's information (b0: the
-// configured offsets or 0). So a direction no epoch observes (three anchors in 2D, a corridor)
+// configured offsets or 0; P: a common part and a smaller part per pair). So a direction no
+// epoch observes (three anchors in 2D, a corridor)
 // keeps its prior, and the others converge as the tag moves. Not from the tracker's
 // innovations: their prediction carries the track's own error, which the offsets would learn.
 // Residuals are clipped at 2 sigma (an NLOS range moves the sums no more than a good one), and
@@ -28,21 +29,42 @@ namespace ips::uwb_twr {
 
 class PairOffsets {
  public:
-  // One entry per site anchor: the prior offset and its sigma (0: known, never learned).
-  void reset(const std::vector<double>& prior_m, const std::vector<double>& prior_sigma_m) {
+  // One entry per site anchor: the prior offset, its own sigma (0: known, never learned) and
+  // whether it shares the common part: a radio's offsets are one common value (the tag's
+  // antenna delay and the firmware's constant) plus a smaller one per pair (the anchors'
+  // delays), so the prior is sigma_i^2 I + common_sigma^2 s s' (s_i 1 for the pairs that
+  // share it): the well observed common part frees the weakly observed differences from having
+  // to be learned from scratch.
+  void reset(const std::vector<double>& prior_m, const std::vector<double>& prior_sigma_m,
+             const std::vector<bool>& shares_common, double common_sigma_m) {
     const auto n = static_cast<Eigen::Index>(prior_m.size());
     b0_ = Eigen::VectorXd::Zero(n);
-    info0_ = Eigen::VectorXd::Zero(n);
+    learned_ = Eigen::VectorXd::Zero(n);
     for (Eigen::Index k = 0; k < n; ++k) {
       b0_(k) = prior_m[static_cast<size_t>(k)];
-      const double s = prior_sigma_m[static_cast<size_t>(k)];
-      info0_(k) = s > 0 ? 1.0 / (s * s) : 0.0;
+      learned_(k) = prior_sigma_m[static_cast<size_t>(k)] > 0 ? 1.0 : 0.0;
     }
+    // The prior's information over the learned offsets.
+    free_.clear();
+    for (Eigen::Index k = 0; k < n; ++k)
+      if (learned_(k) > 0) free_.push_back(k);
+    const auto f = static_cast<Eigen::Index>(free_.size());
+    Eigen::MatrixXd cov0 = Eigen::MatrixXd::Zero(f, f);
+    for (Eigen::Index i = 0; i < f; ++i) {
+      const auto ki = static_cast<size_t>(free_[static_cast<size_t>(i)]);
+      cov0(i, i) = prior_sigma_m[ki] * prior_sigma_m[ki];
+      for (Eigen::Index j = 0; j < f; ++j) {
+        const auto kj = static_cast<size_t>(free_[static_cast<size_t>(j)]);
+        if (shares_common[ki] && shares_common[kj]) cov0(i, j) += common_sigma_m * common_sigma_m;
+      }
+    }
+    info0_ = f > 0 ? Eigen::MatrixXd(cov0.ldlt().solve(Eigen::MatrixXd::Identity(f, f)))
+                   : Eigen::MatrixXd();
     A_ = Eigen::MatrixXd::Zero(n, n);
     y_ = Eigen::VectorXd::Zero(n);
     b_ = b0_;
     var_ = Eigen::VectorXd::Zero(n);
-    for (Eigen::Index k = 0; k < n; ++k) var_(k) = info0_(k) > 0 ? 1.0 / info0_(k) : 0.0;
+    for (Eigen::Index i = 0; i < f; ++i) var_(free_[static_cast<size_t>(i)]) = cov0(i, i);
   }
   size_t size() const { return static_cast<size_t>(b_.size()); }
   double offset_m(size_t k) const { return b_(static_cast<Eigen::Index>(k)); }
@@ -66,7 +88,10 @@ class PairOffsets {
       used(i) = b_(static_cast<Eigen::Index>(idx[static_cast<size_t>(i)]));
       rc(i) = std::clamp(r(i), -clip, clip);
     }
-    const Eigen::VectorXd rhs = (rc + M * used) / r_var;
+    // Clipped residuals are no longer residuals of a fix: projected back (M r), or the clipped
+    // part would land where no epoch observes and only the prior holds (a static tag's offsets
+    // ran off by 0.4 m after one NLOS range).
+    const Eigen::VectorXd rhs = (M * rc + M * used) / r_var;
     A_ *= forget;
     y_ *= forget;
     for (Eigen::Index i = 0; i < m; ++i) {
@@ -80,35 +105,36 @@ class PairOffsets {
 
  private:
   void solve(double max_abs_m) {
-    // Only the learned offsets (prior information > 0); a known one stays as configured.
+    // Only the learned offsets; a known one stays as configured (its column moves to the
+    // right-hand side).
     const Eigen::Index n = b_.size();
-    std::vector<Eigen::Index> free;
-    for (Eigen::Index k = 0; k < n; ++k)
-      if (info0_(k) > 0) free.push_back(k);
-    const auto f = static_cast<Eigen::Index>(free.size());
+    const auto f = static_cast<Eigen::Index>(free_.size());
     if (f == 0) return;
-    Eigen::MatrixXd N(f, f);
-    Eigen::VectorXd v(f);
+    Eigen::MatrixXd N = info0_;
+    Eigen::VectorXd b0f(f);
+    for (Eigen::Index i = 0; i < f; ++i) b0f(i) = b0_(free_[static_cast<size_t>(i)]);
+    Eigen::VectorXd v = info0_ * b0f;
     for (Eigen::Index i = 0; i < f; ++i) {
-      v(i) = y_(free[i]) + info0_(free[i]) * b0_(free[i]);
-      for (Eigen::Index j = 0; j < f; ++j) N(i, j) = A_(free[i], free[j]);
-      N(i, i) += info0_(free[i]);
-      // A known offset's column: its value moves to the right-hand side.
+      const Eigen::Index gi = free_[static_cast<size_t>(i)];
+      v(i) += y_(gi);
+      for (Eigen::Index j = 0; j < f; ++j) N(i, j) += A_(gi, free_[static_cast<size_t>(j)]);
       for (Eigen::Index k = 0; k < n; ++k)
-        if (info0_(k) == 0) v(i) -= A_(free[i], k) * b_(k);
+        if (learned_(k) == 0) v(i) -= A_(gi, k) * b_(k);
     }
     Eigen::LDLT<Eigen::MatrixXd> ldlt(N);
     if (ldlt.info() != Eigen::Success) return;
     const Eigen::VectorXd b = ldlt.solve(v);
     const Eigen::MatrixXd cov = ldlt.solve(Eigen::MatrixXd::Identity(f, f));
     for (Eigen::Index i = 0; i < f; ++i) {
-      b_(free[i]) = std::clamp(b(i), -max_abs_m, max_abs_m);
-      var_(free[i]) = std::max(0.0, cov(i, i));
+      const Eigen::Index gi = free_[static_cast<size_t>(i)];
+      b_(gi) = std::clamp(b(i), -max_abs_m, max_abs_m);
+      var_(gi) = std::max(0.0, cov(i, i));
     }
   }
 
-  Eigen::VectorXd b0_, info0_, b_, var_, y_;
-  Eigen::MatrixXd A_;
+  Eigen::VectorXd b0_, learned_, b_, var_, y_;
+  Eigen::MatrixXd A_, info0_;  // the sums of the epochs' M / r; the prior's information
+  std::vector<Eigen::Index> free_;  // the learned offsets' indices
 };
 
 }  // namespace ips::uwb_twr

@@ -1,11 +1,9 @@
 // The TWR tracker's learned range offsets (models/range_bias.hpp) on a biased radio: the lab
 // scenario with every tag-anchor pair reading long by its own constant, uniform in +0.1 to
 // +0.3 m (the spread of real DW1000 pairs' antenna delays, issue 27), 5 % NLOS outliers as
-// always. Issue 27's bounds are each pair's offset recovered within 0.03 m and the tracker's
-// RMSE within 10 % of the same tracker given the true offsets; reached so far: within 0.08 m,
-// and an RMSE 0.12 m against 0.085 m with the true offsets and 0.19 to 0.37 m with the offsets
-// ignored (the offsets' errors follow the anchors' sides: the epochs' ranges, taken one anchor
-// after another, are not moved to one time yet). The bounds below are what holds now.
+// always. Issue 27's bounds: each pair's offset recovered within 0.03 m, and the tracker's RMSE
+// within 10 % of the same tracker given the true offsets (over the two-minute walk, and after its
+// first minute).
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -26,6 +24,7 @@ constexpr double kOffsetMin = 0.1, kOffsetMax = 0.3;
 
 struct BiasRun {
   eval::ErrorRow row;
+  eval::ErrorRow settled;  // after the first minute (the offsets learned)
   std::map<std::string, double> learned;  // anchor -> offset at the end
 };
 
@@ -60,14 +59,19 @@ BiasRun run_biased(uint64_t seed, double duration_s, const std::string& estimato
                            ", pair_offset_max_m: " + std::to_string(kOffsetMax) + "}\n";
   sim::Scenario sc = sim::parse_scenario_text(text, "range_bias_test");
   eval::Evaluator ev;
-  TwrEstimator est([&](const pose_t& p) { ev.add_estimate("POSE_UWB", p); });
+  utime_t first = 0;
+  TwrEstimator est([&](const pose_t& p) {
+    if (first == 0) first = p.utime;
+    ev.add_estimate("POSE_UWB", p);
+    if (p.utime - first > 60'000'000) ev.add_estimate("SETTLED", p);
+  });
   est.set_site(sc.site);
   test::run_simulated(sc, seed,
                       {.truth = [&](const pose_t& m) { ev.add_truth(m); },
                        .uwb_range = [&](const uwb_range_t& m) { est.on_range(m); }});
   BiasRun out;
   const auto rows = ev.rows();
-  if (!rows.empty()) out.row = rows[0];
+  for (const auto& r : rows) (r.channel == "POSE_UWB" ? out.row : out.settled) = r;
   for (const char* a : {"A1", "A2", "A3", "A4"}) out.learned[a] = est.range_offset_m("T1", a);
   return out;
 }
@@ -80,32 +84,35 @@ std::string true_offsets(uint64_t seed) {
   return s.substr(0, s.size() - 2) + "}";
 }
 
-TEST(TwrRangeBias, PairOffsetsAreLearnedWithinEightCentimetres) {
+TEST(TwrRangeBias, PairOffsetsAreLearnedWithinThreeCentimetres) {
   for (uint64_t seed : {1, 2, 3}) {
-    const BiasRun r = run_biased(seed, 120, "learn_bias: true");
+    const BiasRun r = run_biased(seed, 120, "");
     for (const auto& [anchor, learned] : r.learned) {
       const double truth = sim::uwb_pair_offset_m(seed, "T1", anchor, kOffsetMin, kOffsetMax);
       std::printf("seed %d %s: offset %.3f m, learned %.3f m\n", static_cast<int>(seed),
                   anchor.c_str(), truth, learned);
-      EXPECT_NEAR(learned, truth, 0.08) << "seed " << seed << " " << anchor;
+      EXPECT_NEAR(learned, truth, 0.03) << "seed " << seed << " " << anchor;
     }
   }
 }
 
-TEST(TwrRangeBias, LearnedOffsetsRecoverMostOfWhatKnowingThemGives) {
+TEST(TwrRangeBias, TrackerWithLearnedOffsetsIsWithinTenPercentOfKnowingThem) {
   for (uint64_t seed : {1, 2, 3}) {
-    const BiasRun learned = run_biased(seed, 120, "learn_bias: true");
+    const BiasRun learned = run_biased(seed, 120, "");  // learn_bias is on by default
     const BiasRun known = run_biased(seed, 120, true_offsets(seed));
     const BiasRun ignored = run_biased(seed, 120, "learn_bias: false");
-    std::printf("seed %d: rmse_h learned %.3f, true offsets %.3f, offsets ignored %.3f m\n",
+    std::printf("seed %d: rmse_h learned %.3f, true offsets %.3f, offsets ignored %.3f m; after "
+                "the first minute %.3f / %.3f / %.3f m\n",
                 static_cast<int>(seed), learned.row.rmse_h, known.row.rmse_h,
-                ignored.row.rmse_h);
+                ignored.row.rmse_h, learned.settled.rmse_h, known.settled.rmse_h,
+                ignored.settled.rmse_h);
     EXPECT_GT(learned.row.count, 1000u);
-    EXPECT_LE(learned.row.rmse_h, 0.14) << "seed " << seed;
-    // Learning closes at least a third of the gap between ignoring and knowing the offsets.
-    EXPECT_LE(learned.row.rmse_h - known.row.rmse_h,
-              (2.0 / 3.0) * (ignored.row.rmse_h - known.row.rmse_h))
-        << "seed " << seed;
+    EXPECT_GT(learned.settled.count, 500u);
+    // Over the whole run, the learning's first seconds included, and once learned (after the
+    // first minute): within 10 % of knowing them.
+    EXPECT_LE(learned.row.rmse_h, 1.10 * known.row.rmse_h) << "seed " << seed;
+    EXPECT_LE(learned.settled.rmse_h, 1.10 * known.settled.rmse_h) << "seed " << seed;
+    EXPECT_LT(learned.row.rmse_h, 0.7 * ignored.row.rmse_h) << "seed " << seed;
   }
 }
 
