@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <random>
 #include <cstdio>
 #include <ips/pose_t.hpp>
 #include <ips/uwb_tdoa_t.hpp>
@@ -284,6 +285,61 @@ TEST(TdoaPairs, BadPairsAreCountedNotUsed) {
   EXPECT_EQ(est.pair_stats().pairs_geometry, 1);
   EXPECT_TRUE(poses.empty());
   EXPECT_GE(est.drop_reasons().total(), 7);
+}
+
+// Pairs off the bus can be anything: random anchors (known and not), differences (NaN, inf, huge,
+// plausible), sigmas and times (jumping back and forth). Only finite poses come out; every pair
+// is counted once, as used, gated or dropped for a reason.
+TEST(TdoaPairs, RandomPairsNeverPublishNonFinite) {
+  const Site site = scenario(standing_at(1, 1), "{}", 1).site;
+  std::mt19937_64 rng(11);
+  int64_t poses = 0;
+  TdoaEstimator est(
+      [&](const pose_t& p) {
+        ++poses;
+        for (double v : p.position) ASSERT_TRUE(std::isfinite(v));
+        for (double v : p.position_cov) ASSERT_TRUE(std::isfinite(v));
+      },
+      [](const clock_t&) {});
+  est.set_site(site);
+  const char* ids[] = {"L0", "L1", "L2", "L3", "L4", "L5", "L6", "L7", "X9", ""};
+  const double odd[] = {NAN, INFINITY, -INFINITY, 1e300, -1e9, 0.0};
+  utime_t t = test::kSimStart;
+  for (int k = 0; k < 50000; ++k) {
+    uwb_tdoa_t m;
+    const int mode = static_cast<int>(rng() % 100);
+    t += mode < 2 ? -static_cast<utime_t>(rng() % 10000000) : static_cast<utime_t>(rng() % 20000);
+    m.utime = mode == 3 ? -1 : t;
+    m.tag_id = mode < 90 ? "T1" : (mode < 95 ? "T" + std::to_string(rng() % 5000) : "");
+    m.anchor_a = ids[rng() % 10];
+    m.anchor_b = ids[rng() % 10];
+    const Eigen::Vector3d p(static_cast<double>(rng() % 1000) / 100.0,
+                            static_cast<double>(rng() % 800) / 100.0, 1.2);
+    const Anchor* a = site.find_anchor(m.anchor_a);
+    const Anchor* b = site.find_anchor(m.anchor_b);
+    m.diff_m = mode < 80 && a && b ? (p - b->position).norm() - (p - a->position).norm()
+                                   : (mode < 90 ? (static_cast<double>(rng() % 4000) - 2000) / 100
+                                                : odd[rng() % 6]);
+    m.sigma_m = mode % 7 == 0 ? static_cast<float>(odd[rng() % 6]) : NAN;
+    m.quality = NAN;
+    m.seq = static_cast<int32_t>(k);
+    est.on_pair(m);
+  }
+  const PairStats& s = est.pair_stats();
+  std::printf("random pairs: %lld in, %lld used, %lld gated, %lld invalid, %lld unknown anchor, "
+              "%lld geometry, %lld late, %lld initialising, %lld fixes, %lld lost, %lld poses\n",
+              static_cast<long long>(s.pairs_in), static_cast<long long>(s.pairs_used),
+              static_cast<long long>(s.pairs_gated), static_cast<long long>(s.pairs_invalid),
+              static_cast<long long>(s.pairs_unknown_anchor),
+              static_cast<long long>(s.pairs_geometry), static_cast<long long>(s.pairs_late),
+              static_cast<long long>(s.pairs_initialising),
+              static_cast<long long>(s.initialisations), static_cast<long long>(s.lost),
+              static_cast<long long>(poses));
+  EXPECT_EQ(s.pairs_in, 50000);
+  EXPECT_GT(s.pairs_invalid, 0);
+  EXPECT_GT(s.pairs_unknown_anchor, 0);
+  EXPECT_GT(s.pairs_geometry, 0);
+  EXPECT_GT(poses, 0);
 }
 
 // The model: predicted d_b - d_a and H = unit(p - b) - unit(p - a), as Crazyflie's mm_tdoa.
