@@ -31,3 +31,11 @@ add_test(NAME uwb_tdoa_pairs_replay
          COMMAND ${CMAKE_CURRENT_SOURCE_DIR}/estimators/uwb_tdoa/uwb_tdoa_pairs_replay.sh
                  ${CMAKE_RUNTIME_OUTPUT_DIRECTORY})
 set_tests_properties(uwb_tdoa_pairs_replay PROPERTIES LABELS integration TIMEOUT 120)
+
+# sim (loco-tdoa: UWB_TDOA pairs only, at 10x) -> ips-uwb-tdoa -> lcm-logger over LCM multicast in
+# a private network namespace; ips-eval scores POSE_TDOA.
+add_test(NAME uwb_tdoa_pairs_live_netns
+         COMMAND ${CMAKE_CURRENT_SOURCE_DIR}/integration/uwb_tdoa_pairs_live_netns.sh
+                 ${CMAKE_RUNTIME_OUTPUT_DIRECTORY})
+set_tests_properties(uwb_tdoa_pairs_live_netns PROPERTIES LABELS integration TIMEOUT 120
+                                                          SKIP_RETURN_CODE 77 RESOURCE_LOCK cpu_heavy)
