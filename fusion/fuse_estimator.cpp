@@ -126,6 +126,8 @@ void FuseEstimator::set_site(const Site& site) {
   if (!fuse["range_bias_per_m"].defined() && twr["range_bias_per_m"].defined())
     params.range_bias_per_m =
         twr.get_double_in("range_bias_per_m", params.range_bias_per_m, -0.1, 0.1);
+  // The radios' per-pair offsets (configured, learned): estimators.uwb_twr's settings.
+  radio_ = uwb_twr::parse_twr_params(twr);
   // TDoA blinks: the clock synchronisation of ips-uwb-tdoa with its parameters; BLE angles:
   // ips-aoa's calibration and grouping with its.
   tdoa_.set_site(site);
@@ -350,6 +352,8 @@ void FuseEstimator::apply(Track& t, Snapshot& s, const Measurement& m, bool live
       noise.gate_chi2_positive = params_.nlos_gate_sigma * params_.nlos_gate_sigma;
       noise.downweight_sigma = params_.nlos_downweight_sigma;
       if (m.nlos_power) noise.r_var *= params_.nlos_power_var_scale;  // rx - fp: likely NLOS
+      // The offset taken off (learned: uncertain, uwb_twr/models/range_bias.hpp).
+      if (t.offsets_set) noise.r_var += t.offsets.var_m2(static_cast<size_t>(m.anchor));
       const Eigen::Vector3d& anchor = site_->anchors[static_cast<size_t>(m.anchor)].position;
       const uwb_twr::RangeUpdate u =
           f.planar ? uwb_twr::range_update_state<2, kStateSize>(f.x, f.P, anchor, f.x(2),
@@ -570,6 +574,57 @@ bool FuseEstimator::accept_displacement(Track& t, DisplacementSource src) {
   return true;
 }
 
+void FuseEstimator::learn_offsets(const std::string& tag_id, Track& t, const Measurement& r) {
+  if (!t.offsets_set) {  // the prior: as ips-uwb-twr's (TwrEstimator::on_range)
+    std::vector<double> prior(site_->anchors.size()), prior_sigma(site_->anchors.size());
+    std::vector<bool> common(site_->anchors.size());
+    for (size_t k = 0; k < site_->anchors.size(); ++k) {
+      const auto& o = radio_.range_offsets_m;
+      double offset = std::numeric_limits<double>::quiet_NaN();
+      if (auto it = o.find(tag_id + "/" + site_->anchors[k].id); it != o.end())
+        offset = it->second;
+      else if (auto it2 = o.find(site_->anchors[k].id); it2 != o.end())
+        offset = it2->second;
+      prior[k] = std::isnan(offset) ? 0.0 : offset;
+      common[k] = std::isnan(offset);
+      prior_sigma[k] = !radio_.learn_bias ? 0.0
+                       : std::isnan(offset) ? radio_.bias_pair_sigma_m
+                                            : std::min(radio_.bias_pair_sigma_m, 0.05);
+    }
+    t.offsets.reset(prior, prior_sigma, common, radio_.bias_prior_sigma_m);
+    t.offsets_set = true;
+  }
+  if (!radio_.learn_bias) return;
+  t.epoch_ranges.push_back(r);
+  const utime_t window = s_to_utime(params_.epoch_window_s);
+  while (t.epoch_ranges.size() > 64 ||
+         (t.epoch_ranges.size() > 1 && r.t - t.epoch_ranges.front().t > window))
+    t.epoch_ranges.pop_front();
+  // One epoch per ips-uwb-twr epoch window, on a running track.
+  if (!t.initialised ||
+      (t.last_offsets_t != 0 && r.t - t.last_offsets_t < s_to_utime(radio_.epoch_window_s)))
+    return;
+  std::map<size_t, std::pair<utime_t, double>> latest;
+  for (const auto& e : t.epoch_ranges) latest[static_cast<size_t>(e.anchor)] = {e.t, e.value};
+  const FuseFilter& f = t.state.filter;
+  const int dims = f.planar ? 2 : 3;
+  std::vector<Eigen::Vector3d> positions;
+  double r_var = 0;
+  for (const auto& a : site_->anchors) {
+    positions.push_back(a.position);
+    r_var = std::max(r_var, consistency_.variance("RANGE", a.id,
+                                                  params_.range_sigma_m * params_.range_sigma_m));
+  }
+  const Eigen::Vector3d track = f.x.head<3>();
+  Eigen::Vector3d v = f.x.segment<3>(kVel);
+  if (f.planar) v.z() = 0;
+  t.last_offsets_t = r.t;
+  uwb_twr::learn_offsets_from_epoch(
+      t.offsets, latest, positions, r.t, track, v, f.P.topLeftCorner(dims, dims).trace(), dims,
+      params_.range_sigma_m, r_var, 1.0 - 1.0 / radio_.bias_window, radio_.bias_max_m,
+      MultilaterationSolver::kLevenbergMarquardt);
+}
+
 void FuseEstimator::on_range(const uwb_range_t& m) {
   Track* t = track_for(m.tag_id, m.utime, [this, m] { on_range(m); });
   if (!t) return;
@@ -590,6 +645,9 @@ void FuseEstimator::on_range(const uwb_range_t& m) {
   r.nlos_power =
       uwb_twr::likely_nlos_by_power(m.rx_power_dbm, m.fp_power_dbm, params_.nlos_power_db);
   r.source = kSrcRange;
+  learn_offsets(m.tag_id, *t, r);
+  // The pair's offset off before use: the gate judges what is left (an antenna delay is not NLOS).
+  r.value -= t->offsets.offset_m(static_cast<size_t>(r.anchor));
   if (!t->initialised) {
     t->init_ranges.push_back(r);
     if (t->init_ranges.size() > 64) t->init_ranges.pop_front();

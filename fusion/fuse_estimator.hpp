@@ -47,6 +47,7 @@
 #include "core/time_guard.hpp"
 #include "estimators/aoa/aoa_estimator.hpp"
 #include "estimators/uwb_tdoa/tdoa_estimator.hpp"
+#include "estimators/uwb_twr/twr_estimator.hpp"
 #include "fusion/fuse_filter.hpp"
 #include "fusion/gyro_heading.hpp"
 #include "fusion/models/tdoa.hpp"
@@ -238,6 +239,12 @@ class FuseEstimator {
     uint32_t dr_bit = 0;              // the dead-reckoning source's bit, once one moved the track
     Eigen::Vector3d last_dr_position = Eigen::Vector3d::Zero();
     std::deque<Measurement> init_ranges;  // waiting for a multilateration start
+    // The radios' per-pair range offsets, learned as ips-uwb-twr does (uwb_twr/models/
+    // range_bias.hpp) from the last epoch's ranges (value: less the configured bias only).
+    uwb_twr::PairOffsets offsets;
+    bool offsets_set = false;
+    std::deque<Measurement> epoch_ranges;
+    utime_t last_offsets_t = 0;
     utime_t newest = 0;
     bool tight_tdoa = false;  // blinks fused: POSE_TDOA is not
     bool tight_aoa = false;   // angles fused: POSE_AOA is not
@@ -263,6 +270,9 @@ class FuseEstimator {
   bool planar_for(const std::string& tag_id) const;
   double tag_height(const std::string& tag_id) const;
   void add(const std::string& tag_id, Track& t, Measurement m);
+  // The pairs' range offsets: set up from the site on the tag's first range, then learned from
+  // each epoch of ranges as ips-uwb-twr does (r: a range less the configured bias only).
+  void learn_offsets(const std::string& tag_id, Track& t, const Measurement& r);
   void start(const std::string& tag_id, Track& t, utime_t time, const Eigen::Vector3d& p,
              double sigma_m);
   void try_start_from_ranges(const std::string& tag_id, Track& t);
@@ -295,6 +305,7 @@ class FuseEstimator {
   TimeGuard guard_;  // per tag
   ConsistencyMonitor consistency_;
   std::string range_setting_;  // "range_sigma_m 0.1"
+  uwb_twr::TwrParams radio_;    // estimators.uwb_twr: the radios' offsets and how they are learned
   int64_t tdoa_reanchors_back_ = 0, aoa_reanchors_back_ = 0;  // the hosted guards', seen
   FuseStats stats_;
   std::string last_gap_;

@@ -370,54 +370,27 @@ void TwrEstimator::learn_offsets(Track& t, utime_t now) {
   const int m = static_cast<int>(latest.size());
   if (m < dims + 2 || m < heard) return;
   Eigen::Vector3d track = Eigen::Vector3d::Zero(), v = Eigen::Vector3d::Zero();
+  double track_var = 0;
   if (t.planar) {
     track << t.f2.x(0), t.f2.x(1), t.height_m;
     v.head<2>() = t.f2.x.tail<2>();
+    track_var = t.f2.P.topLeftCorner<2, 2>().trace();
   } else {
     track = t.f3.x.head<3>();
     v = t.f3.x.tail<3>();
+    track_var = t.f3.P.topLeftCorner<3, 3>().trace();
   }
-  // The ranges were taken one anchor after another: each is moved to `now` along the track's
-  // velocity (the radial part), or a moving tag's slot order would be learned as offsets.
-  std::vector<RangeObservation> obs;
-  std::vector<size_t> idx;
-  for (const auto& [k, taken] : latest) {
-    const Eigen::Vector3d d = track - site_->anchors[k].position;
-    const double radial = d.norm() > 1e-6 ? d.dot(v) / d.norm() : 0.0;
-    obs.push_back({site_->anchors[k].position,
-                   taken.second + radial * utime_to_s(now - taken.first) -
-                       t.bias.offset_m(k)});
-    idx.push_back(k);
-  }
-  MultilaterationOptions o;
-  o.fixed_height = t.planar;
-  o.height_m = t.height_m;
-  // From the track: the same minimum, not a mirror image.
-  const MultilaterationResult res = multilaterate(obs, o, params_.init_solver, track);
-  t.last_bias_utime = now;
-  // An NLOS range in the set shows as a large residual: such an epoch teaches nothing. Nor does a
-  // fix the track does not cover (the track is wrong, or the fix is: either way the residuals
-  // are not the offsets').
-  if (!res.ok || res.residual_rms_m > 3.0 * params_.range_sigma_m) return;
-  Eigen::Vector3d p = res.position;
-  if (t.planar) p.z() = t.height_m;
-  const double track_var = t.planar ? t.f2.P.topLeftCorner<2, 2>().trace()
-                                    : t.f3.P.topLeftCorner<3, 3>().trace();
-  const double fix_var = res.covariance_unit.topLeftCorner(dims, dims).trace() *
-                         params_.range_sigma_m * params_.range_sigma_m;
-  if ((p - track).head(dims).squaredNorm() > 9.0 * (track_var + fix_var)) return;
-  Eigen::MatrixXd J(m, dims);
-  Eigen::VectorXd residual(m);
+  std::vector<Eigen::Vector3d> positions;
   double r_var = 0;
-  for (int i = 0; i < m; ++i) {
-    const Eigen::Vector3d d = p - obs[static_cast<size_t>(i)].anchor;
-    const double predicted = std::max(d.norm(), 1e-6);
-    J.row(i) = (d.head(dims) / predicted).transpose();
-    residual(i) = obs[static_cast<size_t>(i)].range_m - predicted;
-    r_var = std::max(r_var, consistency_.variance("RANGE", site_->anchors[idx[static_cast<size_t>(i)]].id,
+  for (const auto& a : site_->anchors) {
+    positions.push_back(a.position);
+    r_var = std::max(r_var, consistency_.variance("RANGE", a.id,
                                                   params_.range_sigma_m * params_.range_sigma_m));
   }
-  t.bias.add_epoch(idx, J, residual, r_var, 1.0 - 1.0 / params_.bias_window, params_.bias_max_m);
+  t.last_bias_utime = now;
+  learn_offsets_from_epoch(t.bias, latest, positions, now, track, v, track_var, dims,
+                           params_.range_sigma_m, r_var, 1.0 - 1.0 / params_.bias_window,
+                           params_.bias_max_m, params_.init_solver);
 }
 
 bool TwrEstimator::try_initialise(Track& t, utime_t now, bool only_if_elsewhere) {

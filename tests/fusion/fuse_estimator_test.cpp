@@ -102,10 +102,11 @@ TEST(FuseEstimator, ExactRangesAndARotatedInsGiveThePathAndTheHeadingBias) {
 TEST(FuseEstimator, LateMessagesAreFusedInOrder) {
   // The same inputs delivered in time order, and with every other range 0.4 s late: the same
   // final state (the late ones roll the track back and everything after is fused again).
-  // Learned range noise is off: it follows the order in which ranges arrived, so the two runs
-  // would differ by millimetres.
+  // Learned range noise and range offsets are off: they follow the order in which ranges
+  // arrived, so the two runs would differ by millimetres.
   const Site site = site_with("{id: T1, height_m: 0.1}",
-                              "{range_sigma_m: 0.3, max_delay_s: 1.0, learn_noise: false}");
+                              "{range_sigma_m: 0.3, max_delay_s: 1.0, learn_noise: false}\n"
+                              "  uwb_twr: {learn_bias: false}");
   const auto in = inputs(site, 20.0, -0.2, 0.3, 7);
   FuseEstimator ordered([](const pose_t&) {});
   ordered.set_site(site);

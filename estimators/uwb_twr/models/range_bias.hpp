@@ -23,7 +23,12 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+#include <map>
+#include <utility>
 #include <vector>
+
+#include "core/multilateration.hpp"
+#include "core/time.hpp"
 
 namespace ips::uwb_twr {
 
@@ -73,13 +78,15 @@ class PairOffsets {
   // One epoch's fix: idx the site anchors of its ranges, J their unit vectors (rows; the fix's
   // free coordinates), r the ranges less the offsets used less the fix's predicted ranges,
   // r_var one range's variance; forget in (0, 1]: the weight left to the epochs before.
-  void add_epoch(const std::vector<size_t>& idx, const Eigen::MatrixXd& J,
+  // Returns false for an epoch not used (a degenerate fix). Not refused for a large residual:
+  // while the offsets are unknown every residual is large.
+  bool add_epoch(const std::vector<size_t>& idx, const Eigen::MatrixXd& J,
                  const Eigen::VectorXd& r, double r_var, double forget, double max_abs_m) {
     const auto m = static_cast<Eigen::Index>(idx.size());
-    if (m <= J.cols() || !(r_var > 0)) return;
+    if (m <= J.cols() || !(r_var > 0)) return false;
     const Eigen::MatrixXd JtJ = J.transpose() * J;
     Eigen::LDLT<Eigen::MatrixXd> ldlt(JtJ);
-    if (ldlt.info() != Eigen::Success || !(ldlt.rcond() > 1e-9)) return;
+    if (ldlt.info() != Eigen::Success || !(ldlt.rcond() > 1e-9)) return false;
     const Eigen::MatrixXd M =
         Eigen::MatrixXd::Identity(m, m) - J * ldlt.solve(J.transpose());
     const double clip = 2.0 * std::sqrt(r_var);
@@ -101,6 +108,7 @@ class PairOffsets {
         A_(gi, static_cast<Eigen::Index>(idx[static_cast<size_t>(j)])) += M(i, j) / r_var;
     }
     solve(max_abs_m);
+    return true;
   }
 
  private:
@@ -136,5 +144,55 @@ class PairOffsets {
   Eigen::MatrixXd A_, info0_;  // the sums of the epochs' M / r; the prior's information
   std::vector<Eigen::Index> free_;  // the learned offsets' indices
 };
+
+// One epoch's lesson for `offsets`, shared by ips-uwb-twr and ips-fuse. latest: per site anchor
+// (index into anchor_positions) the epoch's newest range (its time, the range less any
+// configured per-range bias, not less the pair's offset); track, velocity, track_var: the
+// track's position, velocity and position variance (trace) now; dims 2 (height fixed at
+// track.z()) or 3. The ranges were taken one anchor after another: each is moved to `now`
+// along the track's velocity (its radial part), or a moving tag's slot order would be learned
+// as offsets. The fix starts at the track (the same minimum, not a mirror image); an epoch
+// whose residuals are large (an NLOS range: above 3 range_sigma_m) or whose fix the track does
+// not cover teaches nothing. Returns whether the epoch was used.
+inline bool learn_offsets_from_epoch(PairOffsets& offsets,
+                                     const std::map<size_t, std::pair<utime_t, double>>& latest,
+                                     const std::vector<Eigen::Vector3d>& anchor_positions,
+                                     utime_t now, const Eigen::Vector3d& track,
+                                     const Eigen::Vector3d& velocity, double track_var, int dims,
+                                     double range_sigma_m, double r_var, double forget,
+                                     double max_abs_m, MultilaterationSolver solver) {
+  const int m = static_cast<int>(latest.size());
+  if (m < dims + 2) return false;  // a residual needs a range more than the fix does
+  std::vector<RangeObservation> obs;
+  std::vector<size_t> idx;
+  for (const auto& [k, taken] : latest) {
+    const Eigen::Vector3d d = track - anchor_positions[k];
+    const double radial = d.norm() > 1e-6 ? d.dot(velocity) / d.norm() : 0.0;
+    obs.push_back({anchor_positions[k],
+                   taken.second + radial * utime_to_s(now - taken.first) - offsets.offset_m(k)});
+    idx.push_back(k);
+  }
+  MultilaterationOptions o;
+  o.fixed_height = dims == 2;
+  o.height_m = track.z();
+  const MultilaterationResult res = multilaterate(obs, o, solver, track);
+  if (!res.ok || res.residual_rms_m > 3.0 * range_sigma_m) return false;
+  Eigen::Vector3d p = res.position;
+  if (dims == 2) p.z() = track.z();
+  const double fix_var =
+      res.covariance_unit.topLeftCorner(dims, dims).trace() * range_sigma_m * range_sigma_m;
+  double miss2 = 0;
+  for (int c = 0; c < dims; ++c) miss2 += (p(c) - track(c)) * (p(c) - track(c));
+  if (miss2 > 9.0 * (track_var + fix_var)) return false;
+  Eigen::MatrixXd J(m, dims);
+  Eigen::VectorXd residual(m);
+  for (int i = 0; i < m; ++i) {
+    const Eigen::Vector3d d = p - obs[static_cast<size_t>(i)].anchor;
+    const double predicted = std::max(d.norm(), 1e-6);
+    for (int c = 0; c < dims; ++c) J(i, c) = d(c) / predicted;
+    residual(i) = obs[static_cast<size_t>(i)].range_m - predicted;
+  }
+  return offsets.add_epoch(idx, J, residual, r_var, forget, max_abs_m);
+}
 
 }  // namespace ips::uwb_twr
