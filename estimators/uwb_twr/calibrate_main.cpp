@@ -154,9 +154,8 @@ int main(int argc, char** argv) {
       return 2;
     }
     if (truth_messages == 0) {
-      ips::print_fatal(kProgram, "no truth: no pose_t on channel " +
-                                     ips::printable(truth_channel) + " in " +
-                                     ips::printable(log_path) + " (--truth CHANNEL)");
+      ips::print_fatal(kProgram, "no truth: no pose_t on channel " + ips::printable(truth_channel) +
+                                     " in " + ips::printable(log_path) + " (--truth CHANNEL)");
       return 2;
     }
     // The input site's offsets (as the trackers read them): the med_site column.

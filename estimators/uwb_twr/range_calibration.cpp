@@ -58,7 +58,8 @@ RangeCalibration fit_range_offsets(const Site& site, const std::vector<RangeSamp
     if (hi == tr.begin() || hi == tr.end()) return std::nullopt;
     const auto lo = std::prev(hi);
     if (t - lo->utime > window_us || hi->utime - t > window_us) return std::nullopt;
-    const double f = static_cast<double>(t - lo->utime) / static_cast<double>(hi->utime - lo->utime);
+    const double f =
+        static_cast<double>(t - lo->utime) / static_cast<double>(hi->utime - lo->utime);
     return lo->position + f * (hi->position - lo->position);
   };
 
@@ -135,8 +136,8 @@ RangeCalibration fit_range_offsets(const Site& site, const std::vector<RangeSamp
     if (p.n == 0) {
       p.refused = fmt::format("no range with truth ({} ranges)", p.ranges);
     } else if (!opts.force && p.n < opts.min_ranges) {
-      p.refused = fmt::format("{} ranges with truth, fewer than the {} required", p.n,
-                              opts.min_ranges);
+      p.refused =
+          fmt::format("{} ranges with truth, fewer than the {} required", p.n, opts.min_ranges);
     } else if (!opts.force && std::abs(p.offset_m) > opts.max_offset_m) {
       p.refused = fmt::format("offset {:+.3f} m outside [-{:g}, {:g}] m", p.offset_m,
                               opts.max_offset_m, opts.max_offset_m);
@@ -152,12 +153,13 @@ std::map<std::string, double> offsets_to_write(const std::vector<PairCalibration
   bool several = false;
   for (const auto& p : pairs) {
     if (!p.refused.empty()) continue;
-    if (one_tag.empty()) one_tag = p.tag_id;
-    else if (p.tag_id != one_tag) several = true;
+    if (one_tag.empty())
+      one_tag = p.tag_id;
+    else if (p.tag_id != one_tag)
+      several = true;
   }
   for (const auto& p : pairs)
-    if (p.refused.empty())
-      out[several ? p.tag_id + "/" + p.anchor_id : p.anchor_id] = p.offset_m;
+    if (p.refused.empty()) out[several ? p.tag_id + "/" + p.anchor_id : p.anchor_id] = p.offset_m;
   return out;
 }
 
@@ -171,8 +173,8 @@ std::string site_with_offsets_yaml(const Site& site, const std::map<std::string,
       std::vector<std::string> drop;
       for (const auto& kv : section) {
         const std::string k = kv.first.Scalar();
-        if (k.size() > key.size() + 1 && k.compare(k.size() - key.size() - 1, std::string::npos,
-                                                   "/" + key) == 0)
+        if (k.size() > key.size() + 1 &&
+            k.compare(k.size() - key.size() - 1, std::string::npos, "/" + key) == 0)
           drop.push_back(k);
       }
       for (const auto& k : drop) section.remove(k);

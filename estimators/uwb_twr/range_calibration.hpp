@@ -8,12 +8,11 @@
 // the residuals' median (NLOS ranges are only ever too long: the median moves little, the mean
 // much). Optionally a least-squares line range = (1 + s) d + b, reported only: the trackers read
 // offsets alone.
+#include <Eigen/Core>
 #include <cstdint>
 #include <map>
 #include <string>
 #include <vector>
-
-#include <Eigen/Core>
 
 #include "core/site.hpp"
 
@@ -41,15 +40,15 @@ struct RangeCalibrationOptions {
 
 struct PairCalibration {
   std::string tag_id, anchor_id;
-  int64_t ranges = 0;  // the pair's ranges in the log
-  int64_t n = 0;       // of them with truth: the residuals
-  double offset_m = 0;             // median residual (what is written)
+  int64_t ranges = 0;                                     // the pair's ranges in the log
+  int64_t n = 0;                                          // of them with truth: the residuals
+  double offset_m = 0;                                    // median residual (what is written)
   double mean_before_m = 0, rms_before_m = 0, std_m = 0;  // raw residuals
   double rms_after_m = 0, median_after_m = 0;             // residual - offset_m
   double scale = 0, scale_bias_m = 0;  // range = (1 + scale) d + scale_bias_m (least squares)
-  double site_offset_m = 0;       // the input site's offset for the pair (NaN: none)
-  double median_site_m = 0;       // median residual with the site's offset taken off (NaN: none)
-  std::string refused;            // why it is not written; empty when accepted
+  double site_offset_m = 0;            // the input site's offset for the pair (NaN: none)
+  double median_site_m = 0;  // median residual with the site's offset taken off (NaN: none)
+  std::string refused;       // why it is not written; empty when accepted
 };
 
 struct RangeCalibrationStats {

@@ -3,6 +3,8 @@
 // the simulated lab with biased radios (sensors.uwb_twr.pair_offset_min_m / max_m): the offsets
 // recovered, and, written to the site and read back by the trackers' own parser, the capture's
 // residual medians brought to zero.
+#include "estimators/uwb_twr/range_calibration.hpp"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -10,7 +12,6 @@
 
 #include "drivers/sim/scenario.hpp"
 #include "drivers/sim/sensor_model.hpp"
-#include "estimators/uwb_twr/range_calibration.hpp"
 #include "estimators/uwb_twr/twr_estimator.hpp"
 #include "tests/estimators/simulated_inputs.hpp"
 
@@ -190,8 +191,8 @@ TEST(RangeCalibrationSim, BiasedLabOffsetsRecoveredAndResidualMediansZeroed) {
   std::printf("worst offset error %.4f m\n", worst);
 
   // Written into the site, read back by the trackers' parser, applied to the capture's ranges.
-  const Site back = parse_site_text(site_with_offsets_yaml(sc.site, offsets_to_write(r.pairs), {}),
-                                    "calibrated");
+  const Site back =
+      parse_site_text(site_with_offsets_yaml(sc.site, offsets_to_write(r.pairs), {}), "calibrated");
   const auto offsets = parse_twr_params(back.estimator_params("uwb_twr")).range_offsets_m;
   ASSERT_EQ(offsets.size(), 4u);  // one tag: "A1".."A4"
   const auto before = fit_range_offsets(sc.site, ranges, truth, {}, {});
@@ -221,7 +222,8 @@ TEST(RangeCalibrationSim, BiasedLabOffsetsRecoveredAndResidualMediansZeroed) {
   ASSERT_EQ(res.size(), 4u);
   for (auto& [anchor, v] : res) {
     std::sort(v.begin(), v.end());
-    const double med = v.size() % 2 ? v[v.size() / 2] : 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]);
+    const double med =
+        v.size() % 2 ? v[v.size() / 2] : 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]);
     EXPECT_NEAR(med, 0.0, 0.02) << anchor;
   }
 }
