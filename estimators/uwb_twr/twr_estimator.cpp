@@ -242,9 +242,9 @@ void TwrEstimator::update(Track& t, CvFilter<D>& f, size_t anchor_index, const u
   const bool nlos_power =
       likely_nlos_by_power(m.rx_power_dbm, m.fp_power_dbm, params_.nlos_power_db);
   if (nlos_power) noise.r_var *= params_.nlos_power_var_scale;
-  // The pair's offset removed first: the gate judges what is left (an antenna delay is not NLOS).
-  // Its variance is not added to the range's: while it is being learned the consistency
-  // monitor may see innovations too large, which is what they are.
+  // The pair's offset removed first: the gate judges what is left (an antenna delay is not NLOS);
+  // its variance (once being learned) added to the range's.
+  noise.r_var += t.bias.var_m2(anchor_index);
   const RangeUpdate r = range_update<D>(
       f, site_->anchors[anchor_index].position, t.height_m,
       corrected_range(m.range_m, params_.range_bias_m, params_.range_bias_per_m) -

@@ -23,6 +23,7 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <map>
 #include <utility>
 #include <vector>
@@ -67,13 +68,17 @@ class PairOffsets {
                    : Eigen::MatrixXd();
     A_ = Eigen::MatrixXd::Zero(n, n);
     y_ = Eigen::VectorXd::Zero(n);
+    epochs_ = 0;
     b_ = b0_;
     var_ = Eigen::VectorXd::Zero(n);
     for (Eigen::Index i = 0; i < f; ++i) var_(free_[static_cast<size_t>(i)]) = cov0(i, i);
   }
   size_t size() const { return static_cast<size_t>(b_.size()); }
   double offset_m(size_t k) const { return b_(static_cast<Eigen::Index>(k)); }
-  double var_m2(size_t k) const { return var_(static_cast<Eigen::Index>(k)); }
+  // The offset's variance once any epoch has been learned from; 0 before (where the geometry
+  // never lets it be learned, e.g. four anchors in 3D, the prior's spread would inflate every
+  // range's variance for good: an unknown constant is not white noise).
+  double var_m2(size_t k) const { return epochs_ > 0 ? var_(static_cast<Eigen::Index>(k)) : 0.0; }
 
   // One epoch's fix: idx the site anchors of its ranges, J their unit vectors (rows; the fix's
   // free coordinates), r the ranges less the offsets used less the fix's predicted ranges,
@@ -107,6 +112,7 @@ class PairOffsets {
       for (Eigen::Index j = 0; j < m; ++j)
         A_(gi, static_cast<Eigen::Index>(idx[static_cast<size_t>(j)])) += M(i, j) / r_var;
     }
+    ++epochs_;
     solve(max_abs_m);
     return true;
   }
@@ -143,6 +149,7 @@ class PairOffsets {
   Eigen::VectorXd b0_, learned_, b_, var_, y_;
   Eigen::MatrixXd A_, info0_;  // the sums of the epochs' M / r; the prior's information
   std::vector<Eigen::Index> free_;  // the learned offsets' indices
+  int64_t epochs_ = 0;              // epochs learned from
 };
 
 // One epoch's lesson for `offsets`, shared by ips-uwb-twr and ips-fuse. latest: per site anchor
