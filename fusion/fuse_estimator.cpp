@@ -575,23 +575,8 @@ bool FuseEstimator::accept_displacement(Track& t, DisplacementSource src) {
 }
 
 void FuseEstimator::learn_offsets(const std::string& tag_id, Track& t, const Measurement& r) {
-  if (!t.offsets_set) {  // the prior: as ips-uwb-twr's (TwrEstimator::on_range)
-    std::vector<double> prior(site_->anchors.size()), prior_sigma(site_->anchors.size());
-    std::vector<bool> common(site_->anchors.size());
-    for (size_t k = 0; k < site_->anchors.size(); ++k) {
-      const auto& o = radio_.range_offsets_m;
-      double offset = std::numeric_limits<double>::quiet_NaN();
-      if (auto it = o.find(tag_id + "/" + site_->anchors[k].id); it != o.end())
-        offset = it->second;
-      else if (auto it2 = o.find(site_->anchors[k].id); it2 != o.end())
-        offset = it2->second;
-      prior[k] = std::isnan(offset) ? 0.0 : offset;
-      common[k] = std::isnan(offset);
-      prior_sigma[k] = !radio_.learn_bias ? 0.0
-                       : std::isnan(offset) ? radio_.bias_pair_sigma_m
-                                            : std::min(radio_.bias_pair_sigma_m, 0.05);
-    }
-    t.offsets.reset(prior, prior_sigma, common, radio_.bias_prior_sigma_m);
+  if (!t.offsets_set) {  // the prior: as ips-uwb-twr's
+    t.offsets = uwb_twr::initial_offsets(radio_, tag_id, site_->anchors);
     t.offsets_set = true;
   }
   if (!radio_.learn_bias) return;

@@ -75,6 +75,37 @@ TwrParams parse_twr_params(const YamlField& s) {
   return p;
 }
 
+namespace {
+// The configured offset of a pair: "T1/A1", else "A1"; NaN when neither is set.
+double configured_offset(const TwrParams& p, const std::string& tag_id,
+                         const std::string& anchor_id) {
+  const auto& o = p.range_offsets_m;
+  if (auto it = o.find(tag_id + "/" + anchor_id); it != o.end()) return it->second;
+  if (auto it = o.find(anchor_id); it != o.end()) return it->second;
+  return std::numeric_limits<double>::quiet_NaN();
+}
+}  // namespace
+
+PairOffsets initial_offsets(const TwrParams& p, const std::string& tag_id,
+                            const std::vector<Anchor>& anchors) {
+  std::vector<double> prior(anchors.size()), prior_sigma(anchors.size());
+  std::vector<bool> common(anchors.size());
+  for (size_t k = 0; k < anchors.size(); ++k) {
+    const double offset = configured_offset(p, tag_id, anchors[k].id);
+    prior[k] = std::isnan(offset) ? 0.0 : offset;
+    // A configured offset is known to a few cm (a calibration); otherwise a common part
+    // (bias_prior_sigma_m) and the pair's own (bias_pair_sigma_m). Not learned: taken as known
+    // (0 unless configured).
+    common[k] = std::isnan(offset);
+    prior_sigma[k] = !p.learn_bias         ? 0.0
+                     : std::isnan(offset) ? p.bias_pair_sigma_m
+                                          : std::min(p.bias_pair_sigma_m, 0.05);
+  }
+  PairOffsets offsets;
+  offsets.reset(prior, prior_sigma, common, p.bias_prior_sigma_m);
+  return offsets;
+}
+
 TwrEstimator::TwrEstimator(PoseSink sink, std::string source_name)
     : sink_(std::move(sink)), source_(std::move(source_name)) {}
 
@@ -147,20 +178,7 @@ void TwrEstimator::on_range(const uwb_range_t& m) {
     t.anchor_rejections.assign(site_->anchors.size(), 0);
     t.anchor_heard_utime.assign(site_->anchors.size(), 0);
     t.tag_id = m.tag_id;
-    std::vector<double> prior(site_->anchors.size()), prior_sigma(site_->anchors.size());
-    std::vector<bool> common(site_->anchors.size());
-    for (size_t k = 0; k < site_->anchors.size(); ++k) {
-      const double offset = configured_offset(m.tag_id, site_->anchors[k].id);
-      prior[k] = std::isnan(offset) ? 0.0 : offset;
-      // A configured offset is known to a few cm (a calibration); otherwise a common part
-      // (bias_prior_sigma_m) and the pair's own (bias_pair_sigma_m). Not learned: taken as
-      // known (0 unless configured).
-      common[k] = std::isnan(offset);
-      prior_sigma[k] = !params_.learn_bias ? 0.0
-                       : std::isnan(offset) ? params_.bias_pair_sigma_m
-                                            : std::min(params_.bias_pair_sigma_m, 0.05);
-    }
-    t.bias.reset(prior, prior_sigma, common, params_.bias_prior_sigma_m);
+    t.bias = initial_offsets(params_, m.tag_id, site_->anchors);
   }
   const auto anchor_index = static_cast<size_t>(anchor - site_->anchors.data());
   if (t.newest_utime != 0) {
@@ -289,14 +307,6 @@ double TwrEstimator::range_offset_m(const std::string& tag_id,
   return std::numeric_limits<double>::quiet_NaN();
 }
 
-double TwrEstimator::configured_offset(const std::string& tag_id,
-                                       const std::string& anchor_id) const {
-  const auto& o = params_.range_offsets_m;
-  if (auto it = o.find(tag_id + "/" + anchor_id); it != o.end()) return it->second;
-  if (auto it = o.find(anchor_id); it != o.end()) return it->second;
-  return std::numeric_limits<double>::quiet_NaN();
-}
-
 bool TwrEstimator::epoch_observations(const Track& t, utime_t now, bool learned,
                                       std::vector<RangeObservation>& obs) const {
   // The newest range per anchor within the epoch window.
@@ -307,7 +317,7 @@ bool TwrEstimator::epoch_observations(const Track& t, utime_t now, bool learned,
   for (const auto& [k, r] : latest) {
     double offset = t.bias.offset_m(k);
     if (!learned) {
-      offset = configured_offset(t.tag_id, site_->anchors[k].id);
+      offset = configured_offset(params_, t.tag_id, site_->anchors[k].id);
       if (std::isnan(offset)) offset = 0;
     }
     obs.push_back({site_->anchors[k].position, r - offset});

@@ -82,6 +82,11 @@ struct TwrParams {
 // Reads `estimators.uwb_twr` of the site; throws ConfigError on a bad value.
 TwrParams parse_twr_params(const YamlField& section);
 
+// A tag's per-pair range offsets as the site sets them up (range_offsets_m: "T1/A1", else "A1";
+// learned unless learn_bias is off), one per site anchor: ips-uwb-twr's and ips-fuse's start.
+PairOffsets initial_offsets(const TwrParams& p, const std::string& tag_id,
+                            const std::vector<Anchor>& anchors);
+
 struct TwrStats {
   int64_t ranges_in = 0;
   int64_t ranges_used = 0;
@@ -181,7 +186,6 @@ class TwrEstimator {
   void publish_epoch_fix(Track& t, const std::string& tag_id, utime_t now);
   // The pairs' offsets from an epoch's least-squares residuals (models/range_bias.hpp).
   void learn_offsets(Track& t, utime_t now);
-  double configured_offset(const std::string& tag_id, const std::string& anchor_id) const;
 
   // Solves the newest range per anchor in the epoch window and starts the filter there; with
   // only_if_elsewhere, only when the fix lies outside what the track's covariance covers.
