@@ -7,6 +7,7 @@
 
 #include "core/device_text.hpp"
 #include "core/time.hpp"
+#include "core/track_limit.hpp"
 
 namespace ips::uwb_tdoa {
 
@@ -230,15 +231,8 @@ void PairTracker::on_pair(const uwb_tdoa_t& m) {
   }
   auto it = tracks_.find(m.tag_id);
   if (it == tracks_.end()) {
-    // Tag ids come off an unauthenticated bus: bound them; a track silent for 10 coast periods
-    // makes room.
-    if (tracks_.size() >= static_cast<size_t>(p_.max_tags)) {
-      for (auto old = tracks_.begin(); old != tracks_.end();)
-        old = m.utime - old->second.newest_utime > 10 * s_to_utime(p_.max_coast_s)
-                  ? tracks_.erase(old)
-                  : std::next(old);
-    }
-    if (tracks_.size() >= static_cast<size_t>(p_.max_tags)) {
+    // A track silent for 10 coast periods makes room (core/track_limit.hpp).
+    if (!room_for_track(tracks_, m.utime, p_.max_tags, 10 * s_to_utime(p_.max_coast_s))) {
       ++stats_.pairs_too_many_tags;
       return;
     }

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "core/multilateration.hpp"
+#include "core/track_limit.hpp"
 
 namespace ips::uwb_twr {
 
@@ -156,15 +157,9 @@ void TwrEstimator::on_range(const uwb_range_t& m) {
   auto it = tracks_.find(m.tag_id);
   const bool inserted = it == tracks_.end();
   if (inserted) {
-    // Tag ids come off an unauthenticated bus: bound the memory they can make us spend. A track
-    // silent for 10 coast periods makes room first.
-    if (tracks_.size() >= static_cast<size_t>(params_.max_tags)) {
-      for (auto old = tracks_.begin(); old != tracks_.end();)
-        old = m.utime - old->second.newest_utime > 10 * s_to_utime(params_.max_coast_s)
-                  ? tracks_.erase(old)
-                  : std::next(old);
-    }
-    if (tracks_.size() >= static_cast<size_t>(params_.max_tags)) {
+    // A track silent for 10 coast periods makes room (core/track_limit.hpp).
+    if (!room_for_track(tracks_, m.utime, params_.max_tags,
+                        10 * s_to_utime(params_.max_coast_s))) {
       ++stats_.dropped_too_many_tags;
       return;
     }
