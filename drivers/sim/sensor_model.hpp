@@ -94,6 +94,12 @@ std::mt19937_64 stream_rng(uint64_t seed, const std::string& name);
 double uwb_pair_offset_m(uint64_t seed, const std::string& initiator, const std::string& anchor,
                          double min_m, double max_m);
 
+// The uwb_twr model's antenna delay of one device (a tag or an anchor) when its section sets
+// device_delay_min_m / device_delay_max_m: uniform in [min, max], from its own stream
+// ("UWB_DEVICE_DELAY A3"). Every range, tag-anchor or anchor-anchor, reads long by the delays of
+// both its ends (plus its pair offset).
+double uwb_device_delay_m(uint64_t seed, const std::string& device, double min_m, double max_m);
+
 // Event period for a rate; at least 1 us.
 int64_t period_us(double rate_hz);
 

@@ -10,6 +10,10 @@
 // network does it, with the first anchor (site order) acting as the initiator: tag_id = its id.
 // These sources draw from streams named "UWB_RANGE_PAIR A B", so turning them on leaves every
 // tag stream (and every other model's) exactly as it was.
+// Biased radios, two ways, which add: a constant offset per ranging pair (pair_offset_min_m /
+// max_m), and an antenna delay per device (device_delay_min_m / max_m), a range reading long by
+// the delays of both its ends, tag-anchor and anchor-anchor alike (the model ips-uwb-survey
+// --offsets inverts).
 #include <algorithm>
 #include <ips/uwb_range_t.hpp>
 
@@ -34,6 +38,10 @@ struct UwbTwrParams {
   // +0.08 to +0.32 m, antenna delays); 0 and 0: none.
   double pair_offset_min_m = 0.0;
   double pair_offset_max_m = 0.0;
+  // Each device's (tag's or anchor's) antenna delay as a distance, uniform in [min, max]; a range
+  // reads long by the sum of its two ends' delays. 0 and 0: none.
+  double device_delay_min_m = 0.0;
+  double device_delay_max_m = 0.0;
 };
 
 // One ranging pair: a walker's tag, or an anchor acting as the initiator, to an anchor.
@@ -105,7 +113,7 @@ class UwbTwrSource : public PeriodicSource {
 
  private:
   UwbTwrParams p_;
-  double offset_m_;  // this pair's constant offset (pair_offset_min_m / max)
+  double offset_m_;  // this pair's constant offset (pair offset + both devices' delays)
   double dt_s_;
   bool in_nlos_ = false;
   double episode_bias_m_ = 0;
@@ -121,7 +129,8 @@ SourceList make(const YamlField& f, const SimWorld& world) {
   f.check_keys({"enabled", "rate_hz", "noise_sigma_m", "bias_m", "nlos_probability",
                 "nlos_bias_min_m", "nlos_bias_max_m", "loss_probability", "max_range_m",
                 "nlos_episode_s", "anchor_rates_hz", "anchor_pairs_rate_hz",
-                "pair_offset_min_m", "pair_offset_max_m"});
+                "pair_offset_min_m", "pair_offset_max_m", "device_delay_min_m",
+                "device_delay_max_m"});
   UwbTwrParams p;
   p.rate_hz = param_in_range(f, "rate_hz", p.rate_hz, 0.01, 1000);
   p.noise_sigma_m = param_in_range(f, "noise_sigma_m", p.noise_sigma_m, 0, 100);
@@ -135,6 +144,9 @@ SourceList make(const YamlField& f, const SimWorld& world) {
   p.pair_offset_min_m = param_in_range(f, "pair_offset_min_m", p.pair_offset_min_m, -10, 10);
   p.pair_offset_max_m =
       param_in_range(f, "pair_offset_max_m", p.pair_offset_min_m, p.pair_offset_min_m, 10);
+  p.device_delay_min_m = param_in_range(f, "device_delay_min_m", p.device_delay_min_m, -10, 10);
+  p.device_delay_max_m =
+      param_in_range(f, "device_delay_max_m", p.device_delay_min_m, p.device_delay_min_m, 10);
   p.anchor_pairs_rate_hz = f.get_double("anchor_pairs_rate_hz", p.anchor_pairs_rate_hz);
   if (!(p.anchor_pairs_rate_hz == 0 ||
         (p.anchor_pairs_rate_hz >= 0.01 && p.anchor_pairs_rate_hz <= 1000)))
@@ -156,14 +168,19 @@ SourceList make(const YamlField& f, const SimWorld& world) {
   const int64_t period = period_us(p.rate_hz);
   const int64_t slots = std::max<int64_t>(1, static_cast<int64_t>(anchors.size() * world.walkers.size()));
   int64_t slot = 0;
+  // The constant offset of a pair: its own, plus both ends' delays.
+  auto offset = [&](const std::string& initiator, const std::string& responder) {
+    return uwb_pair_offset_m(world.seed, initiator, responder, p.pair_offset_min_m,
+                             p.pair_offset_max_m) +
+           uwb_device_delay_m(world.seed, initiator, p.device_delay_min_m, p.device_delay_max_m) +
+           uwb_device_delay_m(world.seed, responder, p.device_delay_min_m, p.device_delay_max_m);
+  };
   SourceList out;
   for (const auto& w : world.walkers)
     for (const Anchor* a : anchors)
       out.push_back(std::make_unique<UwbTwrSource>(
           p, rates.get_double(a->id, p.rate_hz), w, *a, (slot++ * period) / slots + 1000,
-          stream_rng(world.seed, "UWB_RANGE " + w.tag_id + " " + a->id),
-          uwb_pair_offset_m(world.seed, w.tag_id, a->id, p.pair_offset_min_m,
-                            p.pair_offset_max_m)));
+          stream_rng(world.seed, "UWB_RANGE " + w.tag_id + " " + a->id), offset(w.tag_id, a->id)));
   // Anchor pairs after every tag source, each in its own slot of the pair period (offset by half
   // a millisecond from the tag slots' 1 ms so that the two schedules rarely coincide).
   if (p.anchor_pairs_rate_hz > 0) {
@@ -177,8 +194,7 @@ SourceList make(const YamlField& f, const SimWorld& world) {
             p, p.anchor_pairs_rate_hz, *anchors[i], *anchors[j],
             (pair_slot++ * pair_period) / pairs + 1500,
             stream_rng(world.seed, "UWB_RANGE_PAIR " + anchors[i]->id + " " + anchors[j]->id),
-            uwb_pair_offset_m(world.seed, anchors[i]->id, anchors[j]->id, p.pair_offset_min_m,
-                              p.pair_offset_max_m)));
+            offset(anchors[i]->id, anchors[j]->id)));
   }
   return out;
 }
@@ -191,6 +207,12 @@ double uwb_pair_offset_m(uint64_t seed, const std::string& initiator, const std:
                          double min_m, double max_m) {
   if (min_m == 0 && max_m == 0) return 0.0;
   std::mt19937_64 rng = stream_rng(seed, "UWB_RANGE_OFFSET " + initiator + " " + anchor);
+  return std::uniform_real_distribution<double>(min_m, max_m)(rng);
+}
+
+double uwb_device_delay_m(uint64_t seed, const std::string& device, double min_m, double max_m) {
+  if (min_m == 0 && max_m == 0) return 0.0;
+  std::mt19937_64 rng = stream_rng(seed, "UWB_DEVICE_DELAY " + device);
   return std::uniform_real_distribution<double>(min_m, max_m)(rng);
 }
 
