@@ -1,7 +1,10 @@
 // ips-uwb-survey: anchor positions from anchor-to-anchor ranges on UWB_RANGE (a log, or the bus
-// for a while); prints the survey and writes the site with the surveyed positions.
+// for a while); prints the survey and writes the site with the surveyed positions. With --offsets,
+// the anchors' antenna delays instead (their positions known: the site's), written as the tag
+// trackers' range offsets (estimators.uwb_twr.range_offsets_m).
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <chrono>
 #include <cmath>
@@ -11,6 +14,7 @@
 #include <fstream>
 #include <ips/site_t.hpp>
 #include <ips/uwb_range_t.hpp>
+#include <map>
 #include <optional>
 
 #include "core/channels.hpp"
@@ -19,14 +23,18 @@
 #include "core/node.hpp"
 #include "core/site_source.hpp"
 #include "core/text_escape.hpp"
+#include "estimators/uwb_survey/anchor_delays.hpp"
 #include "estimators/uwb_survey/anchor_survey.hpp"
 #include "estimators/uwb_survey/range_collector.hpp"
 #include "estimators/uwb_survey/surveyed_site.hpp"
+#include "estimators/uwb_twr/range_calibration.hpp"
+#include "estimators/uwb_twr/twr_estimator.hpp"
 
 namespace {
 
 constexpr const char* kProgram = "ips-uwb-survey";
 namespace us = ips::uwb_survey;
+namespace twr = ips::uwb_twr;
 
 // "T1=X,Y" or "T1=X,Y,Z" (Z: NaN when not given).
 bool parse_known_point(const std::string& text, std::string& tag, Eigen::Vector3d& p) {
@@ -112,6 +120,45 @@ void print_report(const us::SurveyResult& r, const ips::Site& input,
   }
 }
 
+// The anchors' delays (--offsets): the pairs, then each anchor's delay and the offset seeded.
+// site_offsets: the input site's range_offsets_m, for the site_m column.
+void print_delays(const us::DelayResult& r, const std::map<std::string, double>& site_offsets) {
+  std::printf("%-9s %7s %9s %9s %9s %9s\n", "pair", "ranges", "range_m", "dist_m", "offset_m",
+              "resid_m");
+  for (const auto& p : r.pairs) {
+    const std::string name = ips::printable(p.a + "-" + p.b);
+    if (!p.refused.empty())
+      std::printf("%-9s %7zu %9.3f %9.3f %+9.3f   refused: %s\n", name.c_str(), p.samples,
+                  p.range_m, p.distance_m, p.offset_m, p.refused.c_str());
+    else
+      std::printf("%-9s %7zu %9.3f %9.3f %+9.3f %+9.3f\n", name.c_str(), p.samples, p.range_m,
+                  p.distance_m, p.offset_m, p.residual_m);
+  }
+  auto or_dash = [](double v) { return std::isfinite(v) ? fixed(v) : std::string("-"); };
+  std::printf("\n%-8s %9s %9s %5s %9s %9s %9s\n", "anchor", "delay_m", "sigma_m", "pairs", "seed_m",
+              "seed_sig", "site_m");
+  for (const auto& a : r.anchors) {
+    const auto it = site_offsets.find(a.id);
+    std::printf("%-8s %9.3f %9s %5d %9.3f %9s %9s\n", ips::printable(a.id).c_str(), a.delay_m,
+                or_dash(a.sigma_m).c_str(), a.pairs_used, a.seed_m, or_dash(a.seed_sigma_m).c_str(),
+                it == site_offsets.end() ? "-" : fixed(it->second).c_str());
+  }
+  std::printf(
+      "\n%zu pairs used, redundancy %d, residual RMS %.3f m; offset = range - distance = "
+      "d_a + d_b\n",
+      r.pairs.size() - static_cast<size_t>(std::count_if(
+                           r.pairs.begin(), r.pairs.end(),
+                           [](const us::DelayPairReport& p) { return !p.refused.empty(); })),
+      r.redundancy, r.residual_rms_m);
+  std::printf(
+      "seed_m = delay_m + %.3f m, the tags' delay taken as the anchors' mean (no anchor pair "
+      "sees a tag's own delay: a tag's seeded offsets are off by its delay's difference from "
+      "this mean, which ips-uwb-twr and ips-fuse then learn)\n",
+      r.tag_delay_m);
+  if (r.redundancy == 0)
+    std::printf("note: no redundancy (a lone triangle fits exactly): sigma unknown\n");
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -119,13 +166,15 @@ int main(int argc, char** argv) {
       "ips-uwb-survey: surveys the UWB anchors from anchor-to-anchor ranges on UWB_RANGE "
       "(first anchor at the origin, second on +x, third in the +y half-plane, the rest "
       "by least squares; a tag at a known point resolves the mirror ambiguity), prints "
-      "the result and writes the site with the surveyed anchor positions.",
+      "the result and writes the site with the surveyed anchor positions. With --offsets, "
+      "estimates the anchors' antenna delays instead (their positions: the site's) and writes "
+      "them as the tags' range offsets (estimators.uwb_twr.range_offsets_m).",
       kProgram};
   ips::CommonOptions opts;
   ips::add_common_options(app, opts);
   std::string log_path, out_path, known_text;
   double duration_s = 0;
-  bool force = false;
+  bool force = false, offsets_mode = false;
   std::vector<std::string> order;
   std::vector<double> window;
   us::SurveyOptions sopt;
@@ -158,6 +207,11 @@ int main(int argc, char** argv) {
                  "only print the survey")
       ->type_name("SITE.yaml");
   app.add_flag("--force", force, "overwrite --out when it exists");
+  app.add_flag("--offsets", offsets_mode,
+               "instead of surveying positions: the anchors' antenna delays from their ranges "
+               "and the site's anchor positions (range - distance = d_a + d_b, least squares); "
+               "--out gets estimators.uwb_twr.range_offsets_m with each anchor's delay plus the "
+               "tags' (taken as the anchors' mean)");
   app.add_option("--min-samples", sopt.min_samples_per_pair,
                  "ranges a pair needs to be used, at least 1")
       ->capture_default_str();
@@ -182,6 +236,10 @@ int main(int argc, char** argv) {
   if (sopt.min_samples_per_pair < 1) return usage("--min-samples: expected at least 1");
   if (!(sopt.range_quantile > 0 && sopt.range_quantile <= 1))
     return usage("--range-quantile: expected a number in (0, 1]");
+  if (offsets_mode && (!order.empty() || !known_text.empty() || window_opt->count() > 0))
+    return usage(
+        "--offsets uses the site's anchor positions: --order, --known-point and --known-window "
+        "do not apply");
   std::string known_tag;
   Eigen::Vector3d known_point = Eigen::Vector3d::Zero();
   if (!known_text.empty() && !parse_known_point(known_text, known_tag, known_point))
@@ -285,6 +343,53 @@ int main(int argc, char** argv) {
       return 2;
     }
     const ips::Site& site = collector.site();
+    if (offsets_mode) {
+      std::printf("%s: %lld ranges read: %lld between anchors, %lld others\n", kProgram,
+                  static_cast<long long>(st.ranges_in), static_cast<long long>(st.anchor_pair),
+                  static_cast<long long>(st.other));
+      std::vector<us::KnownAnchor> known_anchors;
+      std::vector<us::SurveyAnchor> ids;
+      for (const auto& a : site.anchors)
+        if (a.kind == "uwb" && a.enabled) {
+          known_anchors.push_back({a.id, a.position});
+          ids.push_back({a.id, a.position.z()});
+        }
+      us::DelayResult delays;
+      try {
+        delays = us::solve_anchor_delays(known_anchors, collector.input(ids, std::nullopt).pairs,
+                                         {.range_quantile = sopt.range_quantile,
+                                          .min_samples_per_pair = sopt.min_samples_per_pair});
+      } catch (const us::SurveyError& err) {
+        ips::print_fatal(kProgram, std::string("offsets failed: ") + err.what());
+        return 1;
+      }
+      print_delays(delays, twr::parse_twr_params(site.estimator_params("uwb_twr")).range_offsets_m);
+      if (out_path.empty()) {
+        std::printf("(no --out: nothing written)\n");
+        return 0;
+      }
+      const auto offsets = us::seeded_range_offsets(delays);
+      const std::vector<std::string> header = {
+          "Range offsets seeded by ips-uwb-survey --offsets from " + ips::printable(source) +
+              ": each anchor's antenna delay from anchor-to-anchor ranges, plus the tags' "
+              "taken as the anchors' mean (" +
+              fixed(delays.tag_delay_m) + " m); residual RMS " + fixed(delays.residual_rms_m) +
+              " m.",
+          "Comments of the input site are not kept."};
+      std::string text;
+      try {
+        text = twr::site_with_offsets_yaml(site, offsets, header);
+      } catch (const ips::ConfigError& err) {
+        ips::print_fatal(kProgram, err.what());
+        return 1;
+      }
+      if (std::string error; !ips::write_text_file(out_path, text, error)) {
+        ips::print_fatal(kProgram, error);
+        return 1;
+      }
+      std::printf("wrote %s (%zu offsets)\n", ips::printable(out_path).c_str(), offsets.size());
+      return 0;
+    }
     std::vector<us::SurveyAnchor> anchors;
     std::optional<Eigen::Vector3d> known;
     try {
