@@ -2,6 +2,7 @@
 ips_unit_test(uwb_survey_test
   estimators/uwb_survey/anchor_survey_test.cpp
   estimators/uwb_survey/anchor_delays_test.cpp
+  estimators/uwb_survey/anchor_delays_sim_test.cpp
   estimators/uwb_survey/range_collector_test.cpp
   estimators/uwb_survey/lab_survey_test.cpp)
 target_link_libraries(uwb_survey_test PRIVATE ips_uwb_survey)
