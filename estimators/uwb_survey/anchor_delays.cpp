@@ -105,13 +105,13 @@ DelayResult solve_anchor_delays(const std::vector<KnownAnchor>& anchors,
     out.pairs.push_back(p);
   }
 
-  std::vector<std::string> why;
+  std::vector<std::string> why, alone;
   for (const auto& c : components(n, used)) {
     if (c.odd_cycle) continue;
     std::vector<std::string> ids;
     for (size_t i : c.members) ids.push_back(anchors[i].id);
     if (c.members.size() == 1) {
-      why.push_back(ids[0] + " (no pair used)");
+      alone.push_back(ids[0]);
     } else {
       std::vector<std::string> names;
       for (const auto& [i, j] : used)
@@ -121,6 +121,7 @@ DelayResult solve_anchor_delays(const std::vector<KnownAnchor>& anchors,
                     " close no odd cycle such as a triangle, so +c and -c alternately fit alike)");
     }
   }
+  if (!alone.empty()) why.insert(why.begin(), join(alone) + " (no pair used)");
   if (!why.empty())
     throw SurveyError("delays not determined: " + join(why, "; ") +
                       (refused.empty() ? std::string() : "; refused pairs: " + join(refused)));

@@ -12,3 +12,10 @@ add_test(NAME uwb_survey_cli
          COMMAND ${CMAKE_CURRENT_SOURCE_DIR}/integration/uwb_survey_cli.sh
                  ${CMAKE_RUNTIME_OUTPUT_DIRECTORY} ${PROJECT_SOURCE_DIR})
 set_tests_properties(uwb_survey_cli PROPERTIES LABELS integration TIMEOUT 120)
+
+# ips-uwb-survey --offsets on a simulated lab log with device delays: the table, the site written
+# with range_offsets_m, the keys kept, and the error paths.
+add_test(NAME uwb_survey_offsets_cli
+         COMMAND ${CMAKE_CURRENT_SOURCE_DIR}/integration/uwb_survey_offsets_cli.sh
+                 ${CMAKE_RUNTIME_OUTPUT_DIRECTORY} ${PROJECT_SOURCE_DIR})
+set_tests_properties(uwb_survey_offsets_cli PROPERTIES LABELS integration TIMEOUT 120)
