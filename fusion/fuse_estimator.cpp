@@ -51,7 +51,7 @@ FuseParams parse_fuse_params(const YamlField& s) {
                 "displacement_sigma_min_m", "heading_bias_sigma_deg",
                 "heading_bias_walk_deg_per_sqrt_s", "start_sigma_m", "height_gate_sigma",
                 "pose_gate_sigma", "pose_cov_scale", "epoch_window_s", "max_delay_s", "max_gap_s", "reinit_after_rejections",
-                "publish_period_s", "max_tags", "learn_noise", "nlos_power_db", "nlos_power_var_scale",
+                "publish_period_s", "max_tags", "learn_noise", "nlos_power_db", "nlos_power_los_db", "nlos_power_var_scale",
                 "range_bias_m", "range_bias_per_m"});
   p.learn_noise = s.get_bool("learn_noise", p.learn_noise);
   p.force_3d = s.get_bool("force_3d", p.force_3d);
@@ -63,6 +63,7 @@ FuseParams parse_fuse_params(const YamlField& s) {
   p.nlos_downweight_sigma =
       s.get_double_in("nlos_downweight_sigma", p.nlos_downweight_sigma, 0.1, 1e6);
   p.nlos_power_db = s.get_double_in("nlos_power_db", p.nlos_power_db, 0, 100);
+  p.nlos_power_los_db = s.get_double_in("nlos_power_los_db", p.nlos_power_los_db, 0, 100);
   p.nlos_power_var_scale =
       s.get_double_in("nlos_power_var_scale", p.nlos_power_var_scale, 1, 1e6);
   p.range_bias_m = s.get_double_in("range_bias_m", p.range_bias_m, -10, 10);
@@ -116,16 +117,16 @@ void FuseEstimator::set_site(const Site& site) {
   if (!fuse["range_sigma_m"].defined() && twr["range_sigma_m"].defined())
     params.range_sigma_m = twr.get_double_in("range_sigma_m", params.range_sigma_m, 1e-4, 100);
   // The same device's NLOS indicator and range bias: estimators.uwb_twr's unless fuse says.
-  if (!fuse["nlos_power_db"].defined() && twr["nlos_power_db"].defined())
-    params.nlos_power_db = twr.get_double_in("nlos_power_db", params.nlos_power_db, 0, 100);
-  if (!fuse["nlos_power_var_scale"].defined() && twr["nlos_power_var_scale"].defined())
-    params.nlos_power_var_scale =
-        twr.get_double_in("nlos_power_var_scale", params.nlos_power_var_scale, 1, 1e6);
-  if (!fuse["range_bias_m"].defined() && twr["range_bias_m"].defined())
-    params.range_bias_m = twr.get_double_in("range_bias_m", params.range_bias_m, -10, 10);
-  if (!fuse["range_bias_per_m"].defined() && twr["range_bias_per_m"].defined())
-    params.range_bias_per_m =
-        twr.get_double_in("range_bias_per_m", params.range_bias_per_m, -0.1, 0.1);
+  const auto from_twr = [&](const char* key, double& value, double lo, double hi) {
+    if (!fuse[key].defined() && twr[key].defined()) value = twr.get_double_in(key, value, lo, hi);
+  };
+  from_twr("nlos_power_db", params.nlos_power_db, 0, 100);
+  from_twr("nlos_power_los_db", params.nlos_power_los_db, 0, 100);
+  from_twr("nlos_power_var_scale", params.nlos_power_var_scale, 1, 1e6);
+  from_twr("range_bias_m", params.range_bias_m, -10, 10);
+  from_twr("range_bias_per_m", params.range_bias_per_m, -0.1, 0.1);
+  if (params.nlos_power_db > 0 && params.nlos_power_los_db >= params.nlos_power_db)
+    throw ConfigError("estimators.fuse.nlos_power_los_db must be below nlos_power_db");
   // The radios' per-pair offsets (configured, learned): estimators.uwb_twr's settings.
   radio_ = uwb_twr::parse_twr_params(twr);
   // TDoA blinks: the clock synchronisation of ips-uwb-tdoa with its parameters; BLE angles:
@@ -351,7 +352,7 @@ void FuseEstimator::apply(Track& t, Snapshot& s, const Measurement& m, bool live
       noise.gate_chi2 = params_.gate_sigma * params_.gate_sigma;
       noise.gate_chi2_positive = params_.nlos_gate_sigma * params_.nlos_gate_sigma;
       noise.downweight_sigma = params_.nlos_downweight_sigma;
-      if (m.nlos_power) noise.r_var *= params_.nlos_power_var_scale;  // rx - fp: likely NLOS
+      noise.r_var *= params_.nlos_power().variance_scale(m.nlos_p);  // rx - fp: likely NLOS
       // The offset taken off (learned: uncertain, uwb_twr/models/range_bias.hpp).
       if (t.offsets_set) noise.r_var += t.offsets.var_m2(static_cast<size_t>(m.anchor));
       const Eigen::Vector3d& anchor = site_->anchors[static_cast<size_t>(m.anchor)].position;
@@ -365,7 +366,7 @@ void FuseEstimator::apply(Track& t, Snapshot& s, const Measurement& m, bool live
         consistency_.add_scalar("RANGE", anchor_id, utime_to_s(m.t), u.innovation_m, u.hph, r_cfg,
                                 !u.accepted, range_setting_);
         (u.accepted ? stats_.ranges_used : stats_.ranges_rejected)++;
-        if (u.accepted && m.nlos_power) ++stats_.ranges_nlos_power;
+        if (u.accepted && m.nlos_p > 0.5) ++stats_.ranges_nlos_power;
         if (u.accepted) {
           t.tally.add(u.innovation_m);
           t.sources |= kSrcRange;
@@ -627,8 +628,7 @@ void FuseEstimator::on_range(const uwb_range_t& m) {
   r.t = m.utime;
   r.anchor = static_cast<int>(a - site_->anchors.data());
   r.value = uwb_twr::corrected_range(m.range_m, params_.range_bias_m, params_.range_bias_per_m);
-  r.nlos_power =
-      uwb_twr::likely_nlos_by_power(m.rx_power_dbm, m.fp_power_dbm, params_.nlos_power_db);
+  r.nlos_p = params_.nlos_power().likelihood(m.rx_power_dbm, m.fp_power_dbm);
   r.source = kSrcRange;
   learn_offsets(m.tag_id, *t, r);
   // The pair's offset off before use: the gate judges what is left (an antenna delay is not NLOS).

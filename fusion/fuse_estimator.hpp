@@ -70,8 +70,12 @@ struct FuseParams {
   double nlos_downweight_sigma = 1.5;
   // Ranges flagged likely NLOS by rx - first-path power, and the range bias: as ips-uwb-twr's
   // settings of the same names (estimators.uwb_twr's unless estimators.fuse says).
+  double nlos_power_los_db = 6.0;
   double nlos_power_db = 10.0;
   double nlos_power_var_scale = 10.0;
+  uwb_twr::NlosPower nlos_power() const {
+    return {nlos_power_los_db, nlos_power_db, nlos_power_var_scale};
+  }
   double range_bias_m = 0.0;
   double range_bias_per_m = 0.0;
   double accel_psd = 0.5;         // constant-velocity process noise, (m/s^2)^2/Hz
@@ -213,7 +217,7 @@ class FuseEstimator {
     Eigen::Vector3d vec = Eigen::Vector3d::Zero();  // position, or displacement
     Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
     bool horizontal_only = false;
-    bool nlos_power = false;  // range: likely NLOS by rx - first-path power
+    double nlos_p = 0;  // range: the likelihood of NLOS by rx - first-path power (NlosPower)
     std::variant<std::monostate, TdoaArrivals, Angles> group;  // a blink's arrivals, or angles
     uint32_t source = 0;
     std::string pose_kind;

@@ -18,7 +18,7 @@ TwrParams parse_twr_params(const YamlField& s) {
                 "nlos_downweight_sigma",
                 "epoch_window_s", "init_velocity_sigma_mps", "reinit_after_rejections",
                 "max_coast_s", "publish_period_s", "reorder_tolerance_s", "max_range_m",
-                "max_tags", "learn_noise", "nlos_power_db", "nlos_power_var_scale",
+                "max_tags", "learn_noise", "nlos_power_db", "nlos_power_los_db", "nlos_power_var_scale",
                 "range_bias_m", "range_bias_per_m", "range_offsets_m", "learn_bias",
                 "bias_prior_sigma_m", "bias_pair_sigma_m", "bias_window", "bias_max_m",
                 "epoch_fixes"});
@@ -51,6 +51,9 @@ TwrParams parse_twr_params(const YamlField& s) {
     s["reinit_after_rejections"].fail("must be in [1, 1000000]");
   p.learn_noise = s.get_bool("learn_noise", p.learn_noise);
   p.nlos_power_db = s.get_double_in("nlos_power_db", p.nlos_power_db, 0, 100);
+  p.nlos_power_los_db = s.get_double_in("nlos_power_los_db", p.nlos_power_los_db, 0, 100);
+  if (p.nlos_power_db > 0 && p.nlos_power_los_db >= p.nlos_power_db)
+    s["nlos_power_los_db"].fail("must be below nlos_power_db");
   p.nlos_power_var_scale =
       s.get_double_in("nlos_power_var_scale", p.nlos_power_var_scale, 1, 1e6);
   p.range_bias_m = s.get_double_in("range_bias_m", p.range_bias_m, -10, 10);
@@ -252,9 +255,9 @@ void TwrEstimator::update(Track& t, CvFilter<D>& f, size_t anchor_index, const u
   noise.gate_chi2_positive = params_.nlos_gate_sigma * params_.nlos_gate_sigma;
   noise.downweight_sigma = params_.nlos_downweight_sigma;
   // Likely NLOS by the receiver's own powers: trusted less, whatever its innovation says.
-  const bool nlos_power =
-      likely_nlos_by_power(m.rx_power_dbm, m.fp_power_dbm, params_.nlos_power_db);
-  if (nlos_power) noise.r_var *= params_.nlos_power_var_scale;
+  const NlosPower nlos_model = params_.nlos_power();
+  const double nlos_p = nlos_model.likelihood(m.rx_power_dbm, m.fp_power_dbm);
+  noise.r_var *= nlos_model.variance_scale(nlos_p);
   // The pair's offset removed first: the gate judges what is left (an antenna delay is not NLOS);
   // its variance (once being learned) added to the range's.
   noise.r_var += t.bias.var_m2(anchor_index);
@@ -280,7 +283,7 @@ void TwrEstimator::update(Track& t, CvFilter<D>& f, size_t anchor_index, const u
   }
   t.anchor_rejections[anchor_index] = 0;
   if (r.downweighted) ++stats_.downweighted;
-  if (nlos_power) ++stats_.nlos_power;
+  if (nlos_p > 0.5) ++stats_.nlos_power;
   ++stats_.ranges_used;
   t.consecutive_rejections = 0;
   t.last_accept_utime = std::max(t.last_accept_utime, m.utime);

@@ -51,11 +51,14 @@ struct TwrParams {
   // Learn each anchor's range noise from its innovations (core/consistency.hpp), within
   // [0.5, 10] x range_sigma_m.
   bool learn_noise = true;
-  // NLOS by the receiver's powers (models/uwb_range.hpp): a range whose rx_power_dbm -
-  // fp_power_dbm exceeds nlos_power_db (Decawave APS006: > 10 dB likely NLOS) gets its variance
-  // multiplied by nlos_power_var_scale. 0 turns the indicator off.
+  // NLOS by the receiver's powers (models/uwb_range.hpp, NlosPower): the likelihood rises from 0
+  // at rx_power_dbm - fp_power_dbm = nlos_power_los_db (Decawave APS006: < 6 dB likely LOS) to 1
+  // at nlos_power_db (> 10 dB likely NLOS); the range's variance is multiplied by 1 up to
+  // nlos_power_var_scale with it. nlos_power_db 0 turns the indicator off.
+  double nlos_power_los_db = 6.0;
   double nlos_power_db = 10.0;
   double nlos_power_var_scale = 10.0;
+  NlosPower nlos_power() const { return {nlos_power_los_db, nlos_power_db, nlos_power_var_scale}; }
   // Range bias removed before use: range - (range_bias_m + range_bias_per_m * range). Off (0) by
   // default: the bias is the device's (docs/real-data.md, uwb-cucudasluv static ranges).
   double range_bias_m = 0.0;
@@ -92,7 +95,7 @@ struct TwrStats {
   int64_t ranges_used = 0;
   int64_t rejected_gate = 0;
   int64_t downweighted = 0;            // accepted, with the variance inflated (long: NLOS?)
-  int64_t nlos_power = 0;              // used ranges flagged likely NLOS by rx - fp power
+  int64_t nlos_power = 0;              // used ranges more likely NLOS than not by rx - fp power
   int64_t dropped_unknown_anchor = 0;  // anchor not in the site or disabled
   int64_t dropped_no_anchors = 0;      // the site has no enabled uwb anchor at all
   int64_t dropped_no_site = 0;

@@ -82,7 +82,9 @@ say "$cases cases"
 # then the range error (range - D) per row: N, RMSE (rmse_h_m column), p95 / median / max of
 # |error|, and under "other" the mean error and its std, a least-squares line error = a + b*D,
 # and the NLOS indicator's hit rate: the share of ranges with rx - fp power > 10 dB
-# (ips-uwb-twr's nlos_power_db, Decawave APS006's "likely NLOS") and > 6 dB ("not clearly LOS").
+# (ips-uwb-twr's nlos_power_db, Decawave APS006's "likely NLOS") and > 6 dB ("not clearly LOS"),
+# the mean NLOS likelihood the trackers give them (NlosPower: 0 at 6 dB rising to 1 at 10 dB), and
+# the mean error of the ranges over 6 dB against the others' (does the indicator pick long ones?).
 for env in LOS NLOS; do
   sdir="$DATA/Static_measurements/$env"
   [ -d "$sdir" ] || { say "static $env: no $sdir, skipped"; continue; }
@@ -145,9 +147,15 @@ a = mean - b * md
 res = math.sqrt(sum((y - a - b * x) ** 2 for x, y in zip(d, e)) / n)
 fin = [g for g in gap if math.isfinite(g)]
 share = lambda t: 100.0 * sum(1 for g in fin if g > t) / len(fin) if fin else math.nan
+lik = sum(min(1.0, max(0.0, (g - 6.0) / 4.0)) for g in fin) / len(fin) if fin else math.nan
+over = [x for x, g in zip(e, gap) if math.isfinite(g) and g > 6]
+under = [x for x, g in zip(e, gap) if math.isfinite(g) and g <= 6]
+mean_of = lambda v: "%+.3f m" % (sum(v) / len(v)) if v else "-"
 other = ("mean error %+.3f m, std %.3f m; fit %+.3f %+.4f*D m (residual std %.3f m), D %g-%g m, %s files; "
-         "rx-fp > 10 dB %.2f %%, > 6 dB %.2f %% of %d with powers") % (
-    mean, std, a, b, res, min(d), max(d), sys.argv[3], share(10), share(6), len(fin))
+         "rx-fp > 10 dB %.2f %%, > 6 dB %.2f %% of %d with powers, mean NLOS likelihood %.4f; "
+         "mean error over 6 dB %s (%d), under %s") % (
+    mean, std, a, b, res, min(d), max(d), sys.argv[3], share(10), share(6), len(fin), lik,
+    mean_of(over), len(over), mean_of(under))
 print("\t".join(["uwb-cucudasluv", "static " + sys.argv[2], "ranges (range - D)", str(n), "%.3f" % rmse,
                  "%.3f" % ab[min(n - 1, int(0.95 * n))], "%.3f" % ab[n // 2], "%.3f" % ab[-1], other, "-"]))
 PY

@@ -241,11 +241,20 @@ TEST(FuseEstimator, RangesWithALargeRxMinusFirstPathPowerGetLessWeightAndAreCoun
     EXPECT_TRUE(f);
     return f ? f->x.head<2>().norm() : 0.0;
   };
-  int64_t n_nlos = 0, n_los = 0, n_none = 0, n_off = 0;
+  int64_t n_nlos = 0, n_los = 0, n_none = 0, n_off = 0, n_mid = 0, n_mid_late = 0;
   const double nlos = pull("", -80.0, -95.0, &n_nlos);
   const double los = pull("", -80.0, -83.0, &n_los);
   const double none = pull("", kNaN, kNaN, &n_none);
   const double off = pull(", nlos_power_db: 0", -80.0, -95.0, &n_off);
+  // 9 dB: between APS006's 6 (LOS) and 10 dB (NLOS), likelihood 0.75; with uwb_twr's ramp
+  // starting at 8.9 dB (ips-fuse follows it), 0.09.
+  const double mid = pull("", -80.0, -89.0, &n_mid);
+  const double mid_late = pull(", nlos_power_los_db: 8.9", -80.0, -89.0, &n_mid_late);
+  EXPECT_EQ(n_mid, 1);
+  EXPECT_EQ(n_mid_late, 0);
+  EXPECT_GT(mid, nlos);
+  EXPECT_LT(mid, 0.6 * los);
+  EXPECT_GT(mid_late, 0.7 * los);  // 1.8x the variance
   EXPECT_EQ(n_nlos, 1);
   EXPECT_EQ(n_los, 0);
   EXPECT_EQ(n_none, 0);

@@ -23,14 +23,28 @@ struct RangeNoise {
 };
 
 // The receiver's own NLOS indicator: the total received power minus the first path's power
-// (DW1000: RX_POWER and FP_POWER, dBm). Decawave APS006 part 3 ("NLOS identification"): a
-// difference below 6 dB means the channel is likely LOS, above 10 dB likely NLOS (the first
-// path is weak against the multipath energy). Only when both powers are finite and the
-// threshold is on (> 0): a range without powers is never flagged.
-inline bool likely_nlos_by_power(double rx_power_dbm, double fp_power_dbm, double threshold_db) {
-  return threshold_db > 0 && std::isfinite(rx_power_dbm) && std::isfinite(fp_power_dbm) &&
-         rx_power_dbm - fp_power_dbm > threshold_db;
-}
+// (DW1000: RX_POWER and FP_POWER, dBm; FP_POWER is the first-path amplitude, FP_AMPL1..3 summed
+// in power and normalised by the preamble count, so a weak first path against the multipath
+// energy shows here). Decawave APS006 Part 2 ("NLOS operation and mitigation"): a difference
+// below about 6 dB means the channel is likely LOS, above about 10 dB likely NLOS. In between the
+// likelihood rises linearly from 0 to 1 (the note gives no finer curve), so a range is trusted
+// less the weaker its first path, without a cliff at one threshold. Only when both powers are
+// finite and the indicator is on (nlos_db > 0): a range without powers is never flagged.
+struct NlosPower {
+  double los_db = 6.0;    // at or under: LOS, likelihood 0
+  double nlos_db = 10.0;  // at or over: NLOS, likelihood 1; 0 turns the indicator off
+  double var_scale = 10.0;  // the variance multiplier at likelihood 1
+
+  double likelihood(double rx_power_dbm, double fp_power_dbm) const {
+    if (!(nlos_db > 0) || !std::isfinite(rx_power_dbm) || !std::isfinite(fp_power_dbm)) return 0;
+    const double d = rx_power_dbm - fp_power_dbm;
+    if (d >= nlos_db) return 1;
+    if (d <= los_db) return 0;
+    return (d - los_db) / (nlos_db - los_db);
+  }
+  // The range's variance multiplier: 1 at likelihood 0, var_scale at 1, linear in between.
+  double variance_scale(double likelihood) const { return 1 + likelihood * (var_scale - 1); }
+};
 
 // A range corrected for a known bias: range - (bias_m + bias_per_m * range). Both 0 by default
 // (the bias is the device's and its antenna delay's, see docs/real-data.md).

@@ -277,6 +277,24 @@ TEST(TwrParams, BadValueNamesTheField) {
   }
 }
 
+// The NLOS ramp's foot must lie below its top (issue 27), named where it is set.
+TEST(TwrParams, NlosPowerRampOutOfOrderIsRefused) {
+  try {
+    parse_twr_params(parse_site_text(
+        "anchors: []\nestimators:\n  uwb_twr: {nlos_power_db: 8, nlos_power_los_db: 9}\n", "site.yaml")
+                         .estimator_params("uwb_twr"));
+    FAIL() << "expected ConfigError";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("nlos_power_los_db: must be below nlos_power_db"),
+              std::string::npos)
+        << e.what();
+  }
+  // Off (nlos_power_db 0): the foot does not matter.
+  EXPECT_NO_THROW(parse_twr_params(
+      parse_site_text("anchors: []\nestimators:\n  uwb_twr: {nlos_power_db: 0}\n", "s").estimator_params(
+          "uwb_twr")));
+}
+
 TEST(TwrEstimator, EveryInitialisationSolverStartsTheTrack) {
   for (const char* solver : {"lm", "gauss_newton", "foy"}) {
     Site site = parse_site_text(
@@ -341,10 +359,10 @@ TEST(TwrEstimator, LongRangesAreDownWeighted) {
   EXPECT_LT(on, 0.5 * off);
 }
 
-// The receiver's NLOS indicator (issue 22): a range whose rx - first-path power exceeds
+// The receiver's NLOS indicator (issues 22, 27): a range whose rx - first-path power exceeds
 // nlos_power_db (Decawave APS006: > 10 dB likely NLOS) gets nlos_power_var_scale times the
-// variance and is counted; a range without powers, or with a small difference, is not; 0 turns
-// the indicator off. The range is 0.2 m long, inside the gates and below the Huber threshold, so
+// variance and is counted; one between nlos_power_los_db (6 dB) and 10 dB a part of it, rising
+// with the difference; a range without powers, or under 6 dB, is not; 0 turns the indicator off. The range is 0.2 m long, inside the gates and below the Huber threshold, so
 // only the indicator weighs it.
 TEST(TwrEstimator, RangesWithALargeRxMinusFirstPathPowerGetLessWeightAndAreCounted) {
   auto pull = [](const std::string& settings, double rx, double fp, int64_t* flagged) {
@@ -368,8 +386,11 @@ TEST(TwrEstimator, RangesWithALargeRxMinusFirstPathPowerGetLessWeightAndAreCount
     *flagged = est.stats().nlos_power;
     return std::hypot(out.back().position[0] - 4.0, out.back().position[1] - 3.0);
   };
-  int64_t n_nlos = 0, n_los = 0, n_none = 0, n_off = 0, n_fp_nan = 0;
+  int64_t n_nlos = 0, n_los = 0, n_none = 0, n_off = 0, n_fp_nan = 0, n_mid = 0, n_mid_step = 0;
   const double nlos = pull("", -80.0, -95.0, &n_nlos);         // 15 dB: likely NLOS
+  const double mid = pull("", -80.0, -89.0, &n_mid);           // 9 dB: likelihood 0.75
+  // With the ramp's foot at 8.9 dB the same range is hardly weighed down (likelihood 0.09).
+  const double mid_step = pull(", nlos_power_los_db: 8.9", -80.0, -89.0, &n_mid_step);
   const double los = pull("", -80.0, -83.0, &n_los);           // 3 dB: LOS
   const double none = pull("", NAN, NAN, &n_none);             // no powers
   const double fp_nan = pull("", -80.0, NAN, &n_fp_nan);       // one power only
@@ -384,9 +405,18 @@ TEST(TwrEstimator, RangesWithALargeRxMinusFirstPathPowerGetLessWeightAndAreCount
   EXPECT_DOUBLE_EQ(los, fp_nan);
   EXPECT_DOUBLE_EQ(los, off);
   EXPECT_LT(nlos, 0.4 * los);  // 10x the variance: a fraction of the pull
-  EXPECT_TRUE(likely_nlos_by_power(-80.0, -91.0, 10.0));
-  EXPECT_FALSE(likely_nlos_by_power(-80.0, -89.0, 10.0));
-  EXPECT_FALSE(likely_nlos_by_power(-80.0, -91.0, 0.0));
+  EXPECT_EQ(n_mid, 1);         // more likely NLOS than not
+  EXPECT_EQ(n_mid_step, 0);
+  EXPECT_GT(mid, nlos);        // 7.75x the variance: between the two
+  EXPECT_LT(mid, 0.5 * los);
+  EXPECT_GT(mid_step, 0.7 * los);  // 1.8x the variance
+  const NlosPower model;  // the defaults: 6 and 10 dB, 10x
+  EXPECT_DOUBLE_EQ(model.likelihood(-80.0, -91.0), 1.0);
+  EXPECT_DOUBLE_EQ(model.likelihood(-80.0, -88.0), 0.5);
+  EXPECT_DOUBLE_EQ(model.likelihood(-80.0, -85.0), 0.0);
+  EXPECT_DOUBLE_EQ(model.likelihood(-80.0, NAN), 0.0);
+  EXPECT_DOUBLE_EQ(model.variance_scale(0.5), 5.5);
+  EXPECT_DOUBLE_EQ((NlosPower{6.0, 0.0, 10.0}).likelihood(-80.0, -95.0), 0.0);  // off
 }
 
 // range_bias_m and range_bias_per_m are taken off every range: ranges 0.1 m + 1 % long give the
