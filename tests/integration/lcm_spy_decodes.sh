@@ -17,7 +17,11 @@
 #    within 5 minutes of the wall clock and whose source is not empty;
 #  - double-clicking the UWB_RANGE row opens lcm-spy's message viewer without an exception
 #    (this needs jchart2d.jar, package libjchart2d-java);
-#  - scripts/lcm-spy is still running at the end (it did not die at start).
+#  - scripts/lcm-spy is still running at the end (it did not die at start);
+#  - every struct defined in lcmtypes/*.lcm (read from the files, no list kept here) has its class
+#    in the jar, and lcm-spy's own type database (the one it decodes with) maps that class's
+#    fingerprint back to it, with the DataInput constructor lcm-spy decodes through: so channels
+#    with no traffic here (UWB_TDOA uwb_tdoa_t, UWB_TWR_RAW uwb_twr_timestamps_t, ...) decode too.
 # Set IPS_LCM_SPY_SCREENSHOT=FILE.png to keep a screenshot of the display (table and viewer).
 # Exit 77 (skipped) when it cannot run here: no namespaces, no java/javac/Xvfb, no AWT X11 support.
 # Ends by itself in about 10 s (about 55 s at worst; hard limit 90 s).
@@ -118,6 +122,16 @@ echo "Xvfb on $DISPLAY"
 ntypes=$(jar tf "$JAR" | grep -Ec '^ips/[^/$]+\.class$') || true
 [ "${ntypes:-0}" -gt 0 ] || fail "no ips classes in $JAR"
 echo "$JAR: $ntypes ips types"
+# Every struct in lcmtypes/*.lcm (all of package ips) has its class in the jar: a message added
+# to lcmtypes/ but not to the jar's rule (lcmtypes/CMakeLists.txt), or a stale jar, shows here.
+types=$(sed -n 's/^[[:space:]]*struct[[:space:]]\{1,\}\([A-Za-z_][A-Za-z0-9_]*\).*/\1/p' \
+  "$ROOT"/lcmtypes/*.lcm | sort -u)
+[ -n "$types" ] || fail "no struct found in $ROOT/lcmtypes/*.lcm"
+classes=$(jar tf "$JAR")
+for t in $types; do
+  grep -qx "ips/$t.class" <<<"$classes" || fail "lcmtypes/ defines $t but $JAR has no ips/$t.class"
+done
+echo "ok:   every struct of lcmtypes/*.lcm ($(echo $types | wc -w)) has its class in the jar"
 
 # --- the probe: the real lcm.spy.Spy in this JVM, its window read back through Swing -----------
 mkdir -p "$WORK/probe"
@@ -185,15 +199,20 @@ public class SpyProbe {
     });
   }
 
-  /** lcm-spy's own per-channel record (lcm.spy.ChannelData) behind the table. */
-  @SuppressWarnings("unchecked")
-  static Map<String, Object> channelData(JTable t) throws Exception {
+  /** The lcm.spy.Spy instance behind its channel table. */
+  static Object spyOf(JTable t) throws Exception {
     Field tm = t.getModel().getClass().getDeclaredField("tableModel");  // lcm.util.TableSorter
     tm.setAccessible(true);
     Object inner = tm.get(t.getModel());                                // Spy$ChannelTableModel
     Field outer = inner.getClass().getDeclaredField("this$0");
     outer.setAccessible(true);
-    Object spy = outer.get(inner);                                      // lcm.spy.Spy
+    return outer.get(inner);                                            // lcm.spy.Spy
+  }
+
+  /** lcm-spy's own per-channel record (lcm.spy.ChannelData) behind the table. */
+  @SuppressWarnings("unchecked")
+  static Map<String, Object> channelData(JTable t) throws Exception {
+    Object spy = spyOf(t);
     Field map = spy.getClass().getDeclaredField("channelMap");
     map.setAccessible(true);
     Field list = spy.getClass().getDeclaredField("channelList");
@@ -233,6 +252,7 @@ public class SpyProbe {
 
   static void run(String[] args) throws Exception {
     String url = null, shot = null, open = null;
+    List<String> types = new ArrayList<>();
     double timeout = 30;
     Map<String, String> expect = new LinkedHashMap<>();
     for (String a : args) {
@@ -240,6 +260,7 @@ public class SpyProbe {
       else if (a.startsWith("--timeout=")) timeout = Double.parseDouble(a.substring(10));
       else if (a.startsWith("--screenshot=")) shot = a.substring(13);
       else if (a.startsWith("--open=")) open = a.substring(7);
+      else if (a.startsWith("--types=")) types.addAll(Arrays.asList(a.substring(8).split(",")));
       else if (a.contains("=")) expect.put(a.substring(0, a.indexOf('=')), a.substring(a.indexOf('=') + 1));
       else throw new IllegalArgumentException("bad argument " + a);
     }
@@ -323,6 +344,29 @@ public class SpyProbe {
             e.getKey() + ": decoded source '" + source + "'");
     }
 
+    // Every type of lcmtypes/, as lcm-spy decodes a message: the fingerprint at its head looked up
+    // in the type database lcm-spy built from the classpath (Spy.handlers), then the class's
+    // DataInput constructor.
+    Field hf = spyOf(table).getClass().getDeclaredField("handlers");
+    hf.setAccessible(true);
+    lcm.spy.LCMTypeDatabase db = (lcm.spy.LCMTypeDatabase) hf.get(spyOf(table));
+    for (String name : types) {
+      Class<?> cls;
+      try {
+        cls = Class.forName("ips." + name);
+      } catch (ClassNotFoundException e) {
+        check(false, "type " + name + ": no class ips." + name + " on lcm-spy's classpath");
+        continue;
+      }
+      long fp = cls.getField("LCM_FINGERPRINT").getLong(null);
+      Class<?> found = db.getClassByFingerprint(fp);
+      boolean decodes = false;
+      try { cls.getConstructor(java.io.DataInput.class); decodes = true; } catch (NoSuchMethodException e) { }
+      check(found == cls && decodes, "type " + name + ": lcm-spy maps fingerprint "
+            + String.format("%016x", fp) + " to " + (found == null ? "nothing" : found.getName())
+            + (decodes ? "" : ", and the class has no DataInput constructor"));
+    }
+
     // Double-click a row, as a user does: lcm-spy opens its message viewer (ObjectPanel).
     if (open != null) {
       final JTable t = table;
@@ -377,7 +421,7 @@ javac -nowarn -cp "$LCM_JAR" -d "$WORK/probe" "$WORK/SpyProbe.java" || fail "jav
 CP="$LCM_JAR:$JAR:$CHART_JAR:$WORK/probe"
 
 java -Djava.net.preferIPv4Stack=true -Xmx256m -cp "$CP" SpyProbe --lcm-url="$URL" --timeout=60 \
-  --open=UWB_RANGE --screenshot="$WORK/spy.png" \
+  --open=UWB_RANGE --screenshot="$WORK/spy.png" --types="$(echo $types | tr ' ' ',')" \
   SITE=site_t TRUTH=pose_t UWB_RANGE=uwb_range_t HEALTH=health_t >"$WORK/probe.out" 2>&1 &
 probe=$!
 pids+=("$probe")
