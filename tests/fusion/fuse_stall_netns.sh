@@ -31,18 +31,24 @@ kill -STOP $fuse
 stopped_at=$(date +%s.%N)
 sleep 10
 kill -CONT $fuse
-echo "ips-fuse stopped for $(echo "$(date +%s.%N) - $stopped_at" | bc) s"
+stopped_s=$(echo "$(date +%s.%N) - $stopped_at" | bc)
+echo "ips-fuse stopped for $stopped_s s"
 wait $sim; forget $sim
 python3 "$ROOT/tests/integration/log_wait.py" "$WORK/stall.lcm" --reach POSE_FUSED \
   --end-after-site $duration --pid $fuse --or-idle ips-fuse
 stop $fuse ips-fuse
 stop $logger lcm-logger
 
-python3 - "$WORK/stall.lcm" <<'PY' || fail "poses after the pause"
+# Counts are relative to what happened in this run (where the pause fell in the walk, the pause's
+# wall time, the poses' own period), not fixed numbers a loaded machine can miss. Times are printed
+# as seconds of message time after the SITE, so that a failure can be replayed (ips-replay on the
+# walk with the inputs between the two pause ends cut out).
+python3 - "$WORK/stall.lcm" "$stopped_s" <<'PY' || fail "poses after the pause"
 import bisect, math, struct, sys
 from lcm_log import events
 from lcm_messages import health
 ev = events(sys.argv[1])[0]
+stopped_s = float(sys.argv[2])
 
 def pose(d):  # pose_t: fingerprint, utime, source, tag_id, position[3], position_cov[9], ...
     o = 8
@@ -64,13 +70,28 @@ def truth_at(t):
     f = (t - t0) / (t1 - t0)
     return [a[k] + f * (b[k] - a[k]) for k in range(2)]
 
+site = next(struct.unpack_from('>q', d, 8)[0] for ch, _, d in ev if ch == 'SITE')
+def rel(t): return (t - site) / 1e6  # seconds of message time after the SITE
+
 fused = [pose(d) for ch, ts, d in ev if ch == 'POSE_FUSED']
-assert len(fused) > 100, f'only {len(fused)} POSE_FUSED'
-# The messages lost in the pause: the longest stretch of message time without POSE_FUSED.
+assert len(fused) > 10, f'only {len(fused)} POSE_FUSED'
+# ips-fuse's own publish period: the commonest interval between its poses.
+period = sorted(fused[i + 1][0] - fused[i][0] for i in range(len(fused) - 1))[len(fused) // 2]
+# The messages lost in the pause: the longest stretch of message time without POSE_FUSED; most
+# of the pause (the 64 KiB buffer holds well under a second of the lab's traffic).
 gap, at = max((fused[i + 1][0] - fused[i][0], i) for i in range(len(fused) - 1))
-assert gap > 5e6, f'no pause seen in POSE_FUSED (longest gap {gap / 1e6:.1f} s)'
-print(f'POSE_FUSED: {gap / 1e6:.1f} s of message time without a pose')
-after = fused[at + 1:]
+assert gap > 0.5 * stopped_s * 1e6, \
+    f'no pause seen in POSE_FUSED (longest gap {gap / 1e6:.1f} s, stopped {stopped_s:.1f} s)'
+print(f'POSE_FUSED every {period / 1e6:.2f} s; {gap / 1e6:.1f} s of message time without a pose '
+      f'from {rel(fused[at][0]):.3f} s to {rel(fused[at + 1][0]):.3f} s after the SITE')
+# Before the pause and after it to the end of the walk, ips-fuse published at least half the poses
+# its period allows (a track that did not start, or did not restart, publishes none).
+before, after = fused[:at + 1], fused[at + 1:]
+for name, part, t1 in (('before', before, before[-1][0]), ('after', after, tt[-1])):
+    span = t1 - part[0][0]
+    print(f'{name} the pause: {len(part)} poses in {span / 1e6:.1f} s')
+    assert span > 2e6 and len(part) >= 0.5 * span / period, \
+        f'{name} the pause: {len(part)} poses in {span / 1e6:.1f} s, one every {period / 1e6:.2f} s'
 worst, bad, scored = 0.0, [], 0
 for t, pos, cov, status in after:
     tr = truth_at(t)
@@ -83,11 +104,12 @@ for t, pos, cov, status in after:
     m2 = (c * e[0] ** 2 - 2 * b * e[0] * e[1] + a * e[1] ** 2) / det if det > 0 else math.inf
     worst = max(worst, err)
     if err > 1.0 and m2 > 4.0:
-        bad.append((t, round(err, 2), round(m2, 1), round(math.sqrt(a + c), 2)))
+        bad.append((round(rel(t), 3), round(err, 2), round(m2, 1), round(math.sqrt(a + c), 2)))
 print(f'after the pause: {len(after)} poses, {scored} scored, worst error {worst:.2f} m; '
       f'first status {after[0][3]}')
-assert scored > 50, 'too few poses after the pause'
-assert not bad, f'{len(bad)} poses more than 1 m off outside their 2-sigma ellipse: {bad[:5]}'
+assert scored >= 0.9 * len(after), f'only {scored} of {len(after)} poses after the pause scored'
+assert not bad, (f'{len(bad)} poses more than 1 m off outside their 2-sigma ellipse (s after the '
+                 f'SITE, error m, squared Mahalanobis distance, sd m): {bad[:5]}')
 assert after[0][3] & 16, f'the first pose after the pause is not flagged REINITIALISED: {after[0][3]}'
 mine = [health(d) for ch, _, d in ev if ch == 'HEALTH' and health(d)['source'] == 'ips-fuse']
 said = [h['last_error'] for h in mine if 'without input' in h['last_error']]
