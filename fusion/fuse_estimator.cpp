@@ -575,11 +575,7 @@ bool FuseEstimator::accept_displacement(Track& t, DisplacementSource src) {
   return true;
 }
 
-void FuseEstimator::learn_offsets(const std::string& tag_id, Track& t, const Measurement& r) {
-  if (!t.offsets_set) {  // the prior: as ips-uwb-twr's
-    t.offsets = uwb_twr::initial_offsets(radio_, tag_id, site_->anchors);
-    t.offsets_set = true;
-  }
+void FuseEstimator::learn_offsets(Track& t, const Measurement& r) {
   if (!radio_.learn_bias) return;
   t.epoch_ranges.push_back(r);
   const utime_t window = s_to_utime(params_.epoch_window_s);
@@ -627,10 +623,16 @@ void FuseEstimator::on_range(const uwb_range_t& m) {
   r.kind = Measurement::Kind::kRange;
   r.t = m.utime;
   r.anchor = static_cast<int>(a - site_->anchors.data());
-  r.value = uwb_twr::corrected_range(m.range_m, params_.range_bias_m, params_.range_bias_per_m);
+  if (!t->offsets_set) {  // the prior and the configured scales: as ips-uwb-twr's
+    t->offsets = uwb_twr::initial_offsets(radio_, m.tag_id, site_->anchors);
+    t->offsets_set = true;
+  }
+  r.value = t->offsets.unscaled(
+      static_cast<size_t>(r.anchor),
+      uwb_twr::corrected_range(m.range_m, params_.range_bias_m, params_.range_bias_per_m));
   r.nlos_p = params_.nlos_power().likelihood(m.rx_power_dbm, m.fp_power_dbm);
   r.source = kSrcRange;
-  learn_offsets(m.tag_id, *t, r);
+  learn_offsets(*t, r);
   // The pair's offset off before use: the gate judges what is left (an antenna delay is not NLOS).
   r.value -= t->offsets.offset_m(static_cast<size_t>(r.anchor));
   if (!t->initialised) {

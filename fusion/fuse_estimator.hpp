@@ -276,7 +276,7 @@ class FuseEstimator {
   void add(const std::string& tag_id, Track& t, Measurement m);
   // The pairs' range offsets: set up from the site on the tag's first range, then learned from
   // each epoch of ranges as ips-uwb-twr does (r: a range less the configured bias only).
-  void learn_offsets(const std::string& tag_id, Track& t, const Measurement& r);
+  void learn_offsets(Track& t, const Measurement& r);
   void start(const std::string& tag_id, Track& t, utime_t time, const Eigen::Vector3d& p,
              double sigma_m);
   void try_start_from_ranges(const std::string& tag_id, Track& t);

@@ -34,7 +34,7 @@ std::string cell(double v, const char* format) {
 void print_table(const twr::RangeCalibration& r, bool scale) {
   std::printf("%-8s %-8s %6s %6s %9s %9s %9s %9s %9s %9s", "tag", "anchor", "ranges", "n",
               "offset_m", "std_m", "rms_raw", "rms_cal", "med_cal", "med_site");
-  if (scale) std::printf(" %10s %9s", "scale", "line_b_m");
+  if (scale) std::printf(" %10s %9s %9s", "scale", "scale_se", "line_b_m");
   std::printf("\n");
   for (const auto& p : r.pairs) {
     std::printf("%-8s %-8s %6lld %6lld %9s %9s %9s %9s %9s %9s", ips::printable(p.tag_id).c_str(),
@@ -44,8 +44,8 @@ void print_table(const twr::RangeCalibration& r, bool scale) {
                 cell(p.rms_after_m, "%.4f").c_str(), cell(p.median_after_m, "%+.4f").c_str(),
                 cell(p.median_site_m, "%+.4f").c_str());
     if (scale)
-      std::printf(" %10s %9s", cell(p.scale, "%+.6f").c_str(),
-                  cell(p.scale_bias_m, "%+.4f").c_str());
+      std::printf(" %10s %9s %9s", cell(p.scale, "%+.6f").c_str(),
+                  cell(p.scale_se, "%.6f").c_str(), cell(p.scale_bias_m, "%+.4f").c_str());
     std::printf("%s\n", p.refused.empty() ? "" : ("  refused: " + p.refused).c_str());
   }
 }
@@ -77,13 +77,16 @@ int main(int argc, char** argv) {
                  "estimators.uwb_twr.range_offsets_m here; without it, only print the fit")
       ->type_name("SITE_OUT");
   app.add_flag("--scale", scale,
-               "also fit range = (1 + scale) d + b per pair by least squares and print scale "
-               "and b (not written: the trackers read offsets only)");
+               "also fit each pair's scale, range = (1 + scale) d + b by least squares, and "
+               "write it (estimators.uwb_twr.range_scales) with the offset of range / (1 + "
+               "scale) - d; a pair whose distances vary by less than 0.5 m (std) keeps scale 0; "
+               "|scale| > 0.1 is refused");
   app.add_flag("--force", fopt.force,
                "overwrite --out when it exists, and write pairs with fewer than 20 ranges with "
                "truth or an offset outside [-1, 1] m (refused otherwise)");
   int rc = 0;
   if (!ips::parse_command_line(app, opts, argc, argv, rc)) return rc;
+  fopt.fit_scale = scale;
   auto usage = [](const std::string& what) {
     ips::print_fatal(kProgram, what);
     return 2;
@@ -159,10 +162,9 @@ int main(int argc, char** argv) {
       return 2;
     }
     // The input site's offsets (as the trackers read them): the med_site column.
-    const auto site_offsets =
-        twr::parse_twr_params(site->estimator_params("uwb_twr")).range_offsets_m;
-    const twr::RangeCalibration result =
-        twr::fit_range_offsets(*site, ranges, truth, fopt, site_offsets);
+    const twr::TwrParams site_params = twr::parse_twr_params(site->estimator_params("uwb_twr"));
+    const twr::RangeCalibration result = twr::fit_range_offsets(
+        *site, ranges, truth, fopt, site_params.range_offsets_m, site_params.range_scales);
     const auto& st = result.stats;
     std::printf("%s: %lld UWB_RANGE read, %lld TRUTH poses on %s; site from %s\n", kProgram,
                 static_cast<long long>(st.ranges_in), static_cast<long long>(truth_messages),
@@ -179,7 +181,21 @@ int main(int argc, char** argv) {
         "\nresidual = range - |truth - anchor|; offset_m: its median; rms_raw / rms_cal: before "
         "/ after the offset; med_cal: median after it; med_site: median after the input site's "
         "offset\n");
+    if (scale)
+      std::printf(
+          "scale: range = (1 + scale) d + line_b_m (least squares), scale_se its standard "
+          "error; written (and offset_m and the columns after it of range / (1 + scale)) where "
+          "the distances vary by 0.5 m or more and |scale| > 3 scale_se, else 0: see "
+          "'scales:' below\n");
     print_table(result, scale);
+    if (scale) {
+      std::string used, unused;
+      for (const auto& p : result.pairs)
+        (p.scale_used ? used : unused) +=
+            " " + ips::printable(p.tag_id) + "/" + ips::printable(p.anchor_id);
+      std::printf("scales: used for%s; 0 for%s\n", used.empty() ? " none" : used.c_str(),
+                  unused.empty() ? " none" : unused.c_str());
+    }
     std::string refused;
     for (const auto& p : result.pairs)
       if (!p.refused.empty())
@@ -204,7 +220,9 @@ int main(int argc, char** argv) {
         "Comments of the input site are not kept."};
     std::string text;
     try {
-      text = twr::site_with_offsets_yaml(*site, offsets, header);
+      text = twr::site_with_offsets_yaml(
+          *site, offsets, header,
+          scale ? twr::scales_to_write(result.pairs) : std::map<std::string, double>{});
     } catch (const ips::ConfigError& err) {
       ips::print_fatal(kProgram, err.what());
       return 1;

@@ -32,16 +32,10 @@ double rms(const std::vector<double>& v, double minus) {
 
 }  // namespace
 
-double lookup_offset(const std::map<std::string, double>& offsets, const std::string& tag_id,
-                     const std::string& anchor_id) {
-  if (auto it = offsets.find(tag_id + "/" + anchor_id); it != offsets.end()) return it->second;
-  if (auto it = offsets.find(anchor_id); it != offsets.end()) return it->second;
-  return kNaN;
-}
-
 RangeCalibration fit_range_offsets(const Site& site, const std::vector<RangeSample>& ranges,
                                    const TruthTracks& truth_in, const RangeCalibrationOptions& opts,
-                                   const std::map<std::string, double>& site_offsets) {
+                                   const std::map<std::string, double>& site_offsets,
+                                   const std::map<std::string, double>& site_scales) {
   RangeCalibration r;
   TruthTracks truth = truth_in;
   for (auto& [tag, track] : truth)
@@ -128,11 +122,48 @@ RangeCalibration fit_range_offsets(const Site& site, const std::vector<RangeSamp
         const double slope = sdr / sdd;
         p.scale = slope - 1.0;
         p.scale_bias_m = mr - slope * md;
+        // The slope's standard error from the line's residual scatter.
+        double sse = 0;
+        for (int64_t i = 0; i < p.n; ++i) {
+          const double e = c.range[i] - (slope * c.distance[i] + p.scale_bias_m);
+          sse += e * e;
+        }
+        if (p.n > 2) p.scale_se = std::sqrt(sse / static_cast<double>(p.n - 2) / sdd);
       }
     }
-    p.site_offset_m = lookup_offset(site_offsets, p.tag_id, p.anchor_id);
+    // With the scale: the offset in the terms of the unscaled ranges the trackers use.
+    if (opts.fit_scale && std::isfinite(p.scale) && p.n >= 2) {
+      double md = 0;
+      for (double d : c.distance) md += d;
+      md /= static_cast<double>(p.n);
+      double var = 0;
+      for (double d : c.distance) var += (d - md) * (d - md);
+      // Only a scale the data show: distances that vary, and a slope off 1 by more than
+      // scale_min_se standard errors (NLOS and noise tilt a short line; a wrong scale costs more
+      // at long range than none).
+      if (std::sqrt(var / static_cast<double>(p.n)) >= opts.min_scale_spread_m &&
+          std::abs(p.scale) > opts.scale_min_se * p.scale_se) {
+        p.scale_used = true;
+        std::vector<double> res(c.range.size());
+        for (size_t i = 0; i < res.size(); ++i)
+          res[i] = c.range[i] / (1.0 + p.scale) - c.distance[i];
+        p.offset_m = median(res);
+        p.rms_after_m = rms(res, p.offset_m);
+        for (double& x : res) x -= p.offset_m;
+        p.median_after_m = median(res);
+      }
+    }
+    p.site_offset_m = pair_setting(site_offsets, p.tag_id, p.anchor_id);
     p.median_site_m = kNaN;
-    if (std::isfinite(p.site_offset_m) && p.n > 0) p.median_site_m = p.offset_m - p.site_offset_m;
+    if (std::isfinite(p.site_offset_m) && p.n > 0) {
+      // As the trackers take them off: divided by the site's 1 + scale, then its offset.
+      double site_scale = pair_setting(site_scales, p.tag_id, p.anchor_id);
+      if (!std::isfinite(site_scale)) site_scale = 0;
+      std::vector<double> res(c.range.size());
+      for (size_t i = 0; i < res.size(); ++i)
+        res[i] = c.range[i] / (1.0 + site_scale) - c.distance[i] - p.site_offset_m;
+      p.median_site_m = median(res);
+    }
     if (p.n == 0) {
       p.refused = fmt::format("no range with truth ({} ranges)", p.ranges);
     } else if (!opts.force && p.n < opts.min_ranges) {
@@ -141,13 +172,21 @@ RangeCalibration fit_range_offsets(const Site& site, const std::vector<RangeSamp
     } else if (!opts.force && std::abs(p.offset_m) > opts.max_offset_m) {
       p.refused = fmt::format("offset {:+.3f} m outside [-{:g}, {:g}] m", p.offset_m,
                               opts.max_offset_m, opts.max_offset_m);
+    } else if (p.scale_used && std::abs(p.scale) > opts.max_scale) {
+      // Beyond the site's bound even with --force: the trackers would refuse the site.
+      p.refused = fmt::format("scale {:+.4f} outside [-{:g}, {:g}]", p.scale, opts.max_scale,
+                              opts.max_scale);
     }
     r.pairs.push_back(p);
   }
   return r;
 }
 
-std::map<std::string, double> offsets_to_write(const std::vector<PairCalibration>& pairs) {
+namespace {
+// Each accepted pair's value, keyed "A1" when they are all of one tag, else "T1/A1".
+template <typename Value>
+std::map<std::string, double> pair_values(const std::vector<PairCalibration>& pairs,
+                                          Value value) {
   std::map<std::string, double> out;
   std::string one_tag;
   bool several = false;
@@ -159,36 +198,73 @@ std::map<std::string, double> offsets_to_write(const std::vector<PairCalibration
       several = true;
   }
   for (const auto& p : pairs)
-    if (p.refused.empty()) out[several ? p.tag_id + "/" + p.anchor_id : p.anchor_id] = p.offset_m;
+    if (p.refused.empty()) out[several ? p.tag_id + "/" + p.anchor_id : p.anchor_id] = value(p);
+  return out;
+}
+}  // namespace
+
+std::map<std::string, double> offsets_to_write(const std::vector<PairCalibration>& pairs) {
+  return pair_values(pairs, [](const PairCalibration& p) { return p.offset_m; });
+}
+
+std::map<std::string, double> scales_to_write(const std::vector<PairCalibration>& pairs) {
+  // Keyed as offsets_to_write keys all the accepted pairs (one tag or several).
+  std::map<std::string, double> out;
+  const auto values = pair_values(pairs, [](const PairCalibration& p) {
+    return p.scale_used ? p.scale : std::numeric_limits<double>::quiet_NaN();
+  });
+  for (const auto& [key, value] : values)
+    if (std::isfinite(value)) out[key] = value;
   return out;
 }
 
 std::string site_with_offsets_yaml(const Site& site, const std::map<std::string, double>& offsets,
-                                   const std::vector<std::string>& header) {
+                                   const std::vector<std::string>& header,
+                                   const std::map<std::string, double>& scales) {
   SiteYamlEdit edit(site);
-  YAML::Node section = edit.map_at({"estimators", "uwb_twr", "range_offsets_m"});
-  for (const auto& [key, value] : offsets) {
-    if (key.find('/') == std::string::npos) {
-      // A pair key of this anchor would override the anchor's offset in the trackers.
-      std::vector<std::string> drop;
-      for (const auto& kv : section) {
-        const std::string k = kv.first.Scalar();
-        if (k.size() > key.size() + 1 &&
-            k.compare(k.size() - key.size() - 1, std::string::npos, "/" + key) == 0)
-          drop.push_back(k);
+  // Into a map of the site's estimators.uwb_twr, each value's overriding pair keys dropped.
+  const auto merge = [&edit](const char* name, const std::map<std::string, double>& values,
+                             int decimals) {
+    YAML::Node section = edit.map_at({"estimators", "uwb_twr", name});
+    for (const auto& [key, value] : values) {
+      if (key.find('/') == std::string::npos) {
+        // A pair key of this anchor would override the anchor's value in the trackers.
+        std::vector<std::string> drop;
+        for (const auto& kv : section) {
+          const std::string k = kv.first.Scalar();
+          if (k.size() > key.size() + 1 &&
+              k.compare(k.size() - key.size() - 1, std::string::npos, "/" + key) == 0)
+            drop.push_back(k);
+        }
+        for (const auto& k : drop) section.remove(k);
       }
-      for (const auto& k : drop) section.remove(k);
+      section[key] = YAML::Load(fmt::format("{:.{}f}", value, decimals));
     }
-    section[key] = YAML::Load(fmt::format("{:.4f}", value));
+  };
+  merge("range_offsets_m", offsets, 4);
+  // An offset written without a scale is for unscaled ranges: a scale left for its key would now
+  // be wrong.
+  YAML::Node twr = edit.map_at({"estimators", "uwb_twr"});
+  if (YAML::Node old = twr["range_scales"]; old && old.IsMap()) {
+    for (const auto& kv : offsets)
+      if (!scales.count(kv.first)) old.remove(kv.first);
+    if (old.size() == 0) twr.remove("range_scales");
   }
+  if (!scales.empty()) merge("range_scales", scales, 6);
   const std::string text = edit.text(header);
   const Site back = parse_site_text(text, "the calibrated site");
-  const auto parsed = parse_twr_params(back.estimator_params("uwb_twr")).range_offsets_m;
-  for (const auto& [key, value] : offsets) {
-    const auto it = parsed.find(key);
-    if (it == parsed.end() || std::abs(it->second - value) > 1e-4)
-      throw ConfigError("the calibrated site lost the range offset of " + key);
-  }
+  const TwrParams parsed = parse_twr_params(back.estimator_params("uwb_twr"));
+  const auto check = [](const std::map<std::string, double>& want,
+                        const std::map<std::string, double>& got, const char* what,
+                        double tolerance) {
+    for (const auto& [key, value] : want) {
+      const auto it = got.find(key);
+      if (it == got.end() || std::abs(it->second - value) > tolerance)
+        throw ConfigError(std::string("the calibrated site lost the range ") + what + " of " + key);
+    }
+  };
+  check(offsets, parsed.range_offsets_m, "offset", 1e-4);
+  check(scales, parsed.range_scales, "scale", 1e-6);
   return text;
 }
 

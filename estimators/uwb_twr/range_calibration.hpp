@@ -6,8 +6,11 @@
 // Per pair, residual = range - |truth(t) - anchor|, the truth interpolated at the range's time
 // (a range without a truth sample within truth_window_s on each side is skipped). The offset is
 // the residuals' median (NLOS ranges are only ever too long: the median moves little, the mean
-// much). Optionally a least-squares line range = (1 + s) d + b, reported only: the trackers read
-// offsets alone.
+// much). Optionally (fit_scale) each pair's scale s too, from the least-squares line
+// range = (1 + s) d + b, and the offset is then the median of range / (1 + s) - d: the trackers
+// divide a range by 1 + s before taking the offset off (estimators.uwb_twr.range_scales). A
+// scale needs distances that vary (their spread at least min_scale_spread_m) and a slope off 1 by
+// more than scale_min_se standard errors; otherwise the pair keeps scale 0 and says so.
 #include <Eigen/Core>
 #include <cstdint>
 #include <map>
@@ -36,6 +39,10 @@ struct RangeCalibrationOptions {
   int min_ranges = 20;          // fewer: the pair is refused
   double max_offset_m = 1.0;    // |offset| beyond: refused
   bool force = false;           // keep refused pairs that have at least one range
+  bool fit_scale = false;       // also each pair's scale factor (written as range_scales)
+  double min_scale_spread_m = 0.5;  // the distances' standard deviation a scale needs
+  double max_scale = 0.1;       // |scale| beyond: refused (the site's bound)
+  double scale_min_se = 3.0;    // a scale within this many standard errors of 0 is not used
 };
 
 struct PairCalibration {
@@ -46,6 +53,9 @@ struct PairCalibration {
   double mean_before_m = 0, rms_before_m = 0, std_m = 0;  // raw residuals
   double rms_after_m = 0, median_after_m = 0;             // residual - offset_m
   double scale = 0, scale_bias_m = 0;  // range = (1 + scale) d + scale_bias_m (least squares)
+  double scale_se = 0;      // the slope's standard error
+  bool scale_used = false;  // fit_scale, the distances vary and the scale is significant:
+                            // offset_m is in its terms
   double site_offset_m = 0;            // the input site's offset for the pair (NaN: none)
   double median_site_m = 0;  // median residual with the site's offset taken off (NaN: none)
   std::string refused;       // why it is not written; empty when accepted
@@ -68,20 +78,22 @@ struct RangeCalibration {
 // "T1/A1", as the trackers read them), for the median_site_m column.
 RangeCalibration fit_range_offsets(const Site& site, const std::vector<RangeSample>& ranges,
                                    const TruthTracks& truth, const RangeCalibrationOptions& opts,
-                                   const std::map<std::string, double>& site_offsets = {});
-
-// The offset the trackers use for a pair: "TAG/ANCHOR", else "ANCHOR", else NaN.
-double lookup_offset(const std::map<std::string, double>& offsets, const std::string& tag_id,
-                     const std::string& anchor_id);
+                                   const std::map<std::string, double>& site_offsets = {},
+                                   const std::map<std::string, double>& site_scales = {});
 
 // The offsets to write, of the accepted pairs: keyed "A1" when they are all of one tag, else
 // "T1/A1".
 std::map<std::string, double> offsets_to_write(const std::vector<PairCalibration>& pairs);
+// The same pairs' scales, of those whose scale is used (keyed as offsets_to_write).
+std::map<std::string, double> scales_to_write(const std::vector<PairCalibration>& pairs);
 
-// The site's YAML with `offsets` merged into estimators.uwb_twr.range_offsets_m (other keys kept;
-// an anchor-only key drops the pair keys "*/ANCHOR" that would override it), each header line a
-// leading comment. Checks that the text parses back with the offsets; ConfigError otherwise.
+// The site's YAML with `offsets` merged into estimators.uwb_twr.range_offsets_m and `scales`
+// into range_scales (other keys kept; an anchor-only key drops the pair keys "*/ANCHOR" that
+// would override it). An offset written without a scale is for unscaled ranges, so its key's
+// range_scales entry is dropped. Each header line a leading comment. Checks that the
+// text parses back with the values; ConfigError otherwise.
 std::string site_with_offsets_yaml(const Site& site, const std::map<std::string, double>& offsets,
-                                   const std::vector<std::string>& header);
+                                   const std::vector<std::string>& header,
+                                   const std::map<std::string, double>& scales = {});
 
 }  // namespace ips::uwb_twr

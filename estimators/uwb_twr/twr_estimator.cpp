@@ -19,7 +19,7 @@ TwrParams parse_twr_params(const YamlField& s) {
                 "epoch_window_s", "init_velocity_sigma_mps", "reinit_after_rejections",
                 "max_coast_s", "publish_period_s", "reorder_tolerance_s", "max_range_m",
                 "max_tags", "learn_noise", "nlos_power_db", "nlos_power_los_db", "nlos_power_var_scale",
-                "range_bias_m", "range_bias_per_m", "range_offsets_m", "learn_bias",
+                "range_bias_m", "range_bias_per_m", "range_offsets_m", "range_scales", "learn_bias",
                 "bias_prior_sigma_m", "bias_pair_sigma_m", "bias_window", "bias_max_m",
                 "epoch_fixes"});
   // Every parameter is bounded, not just positive: a SITE message on the bus is outside input.
@@ -58,16 +58,22 @@ TwrParams parse_twr_params(const YamlField& s) {
       s.get_double_in("nlos_power_var_scale", p.nlos_power_var_scale, 1, 1e6);
   p.range_bias_m = s.get_double_in("range_bias_m", p.range_bias_m, -10, 10);
   p.range_bias_per_m = s.get_double_in("range_bias_per_m", p.range_bias_per_m, -0.1, 0.1);
-  const YamlField offsets = s["range_offsets_m"];
-  if (offsets.defined()) {
-    if (!offsets.is_map()) offsets.fail("expected a map of anchor id (or tag/anchor): offset in m");
-    for (const auto& kv : offsets.node()) {
-      if (!kv.first.IsScalar() || kv.first.Scalar().empty())
-        offsets.fail("expected a map of anchor id (or tag/anchor): offset in m");
-      const std::string key = kv.first.Scalar();
-      p.range_offsets_m[key] = offsets.get_double_in(key, 0.0, -10, 10);
+  // A map of anchor id (or tag/anchor) to a value in [lo, hi].
+  const auto pair_map = [&s](const char* key, const char* what, double lo, double hi) {
+    std::map<std::string, double> out;
+    const YamlField field = s[key];
+    if (!field.defined()) return out;
+    const std::string expected = std::string("expected a map of anchor id (or tag/anchor): ") + what;
+    if (!field.is_map()) field.fail(expected);
+    for (const auto& kv : field.node()) {
+      if (!kv.first.IsScalar() || kv.first.Scalar().empty()) field.fail(expected);
+      const std::string k = kv.first.Scalar();
+      out[k] = field.get_double_in(k, 0.0, lo, hi);
     }
-  }
+    return out;
+  };
+  p.range_offsets_m = pair_map("range_offsets_m", "offset in m", -10, 10);
+  p.range_scales = pair_map("range_scales", "scale factor", -0.1, 0.1);
   p.learn_bias = s.get_bool("learn_bias", p.learn_bias);
   p.bias_prior_sigma_m = s.get_double_in("bias_prior_sigma_m", p.bias_prior_sigma_m, 0.001, 10);
   p.bias_pair_sigma_m = s.get_double_in("bias_pair_sigma_m", p.bias_pair_sigma_m, 0.001, 10);
@@ -79,23 +85,19 @@ TwrParams parse_twr_params(const YamlField& s) {
   return p;
 }
 
-namespace {
-// The configured offset of a pair: "T1/A1", else "A1"; NaN when neither is set.
-double configured_offset(const TwrParams& p, const std::string& tag_id,
-                         const std::string& anchor_id) {
-  const auto& o = p.range_offsets_m;
-  if (auto it = o.find(tag_id + "/" + anchor_id); it != o.end()) return it->second;
-  if (auto it = o.find(anchor_id); it != o.end()) return it->second;
+double pair_setting(const std::map<std::string, double>& values, const std::string& tag_id,
+                    const std::string& anchor_id) {
+  if (auto it = values.find(tag_id + "/" + anchor_id); it != values.end()) return it->second;
+  if (auto it = values.find(anchor_id); it != values.end()) return it->second;
   return std::numeric_limits<double>::quiet_NaN();
 }
-}  // namespace
 
 PairOffsets initial_offsets(const TwrParams& p, const std::string& tag_id,
                             const std::vector<Anchor>& anchors) {
   std::vector<double> prior(anchors.size()), prior_sigma(anchors.size());
   std::vector<bool> common(anchors.size());
   for (size_t k = 0; k < anchors.size(); ++k) {
-    const double offset = configured_offset(p, tag_id, anchors[k].id);
+    const double offset = pair_setting(p.range_offsets_m, tag_id, anchors[k].id);
     prior[k] = std::isnan(offset) ? 0.0 : offset;
     // A configured offset is known to a few cm (a calibration); otherwise a common part
     // (bias_prior_sigma_m) and the pair's own (bias_pair_sigma_m). Not learned: taken as known
@@ -107,6 +109,14 @@ PairOffsets initial_offsets(const TwrParams& p, const std::string& tag_id,
   }
   PairOffsets offsets;
   offsets.reset(prior, prior_sigma, common, p.bias_prior_sigma_m);
+  if (!p.range_scales.empty()) {
+    std::vector<double> scales(anchors.size());
+    for (size_t k = 0; k < anchors.size(); ++k) {
+      const double s = pair_setting(p.range_scales, tag_id, anchors[k].id);
+      scales[k] = std::isnan(s) ? 0.0 : s;
+    }
+    offsets.set_scales(std::move(scales));
+  }
   return offsets;
 }
 
@@ -209,8 +219,8 @@ void TwrEstimator::on_range(const uwb_range_t& m) {
     t.cycle_s = t.cycle_s == 0 ? gap_s : t.cycle_s + 0.05 * (gap_s - t.cycle_s);
   }
   t.anchor_heard_utime[anchor_index] = std::max(heard, m.utime);
-  const double range_m =
-      corrected_range(m.range_m, params_.range_bias_m, params_.range_bias_per_m);
+  const double range_m = t.bias.unscaled(
+      anchor_index, corrected_range(m.range_m, params_.range_bias_m, params_.range_bias_per_m));
   t.recent.push_back({m.utime, anchor_index, range_m});
   while (t.recent.size() > 64 ||
          (t.recent.size() > 1 && m.utime - t.recent.front().utime > epoch_window(t)))
@@ -263,7 +273,8 @@ void TwrEstimator::update(Track& t, CvFilter<D>& f, size_t anchor_index, const u
   noise.r_var += t.bias.var_m2(anchor_index);
   const RangeUpdate r = range_update<D>(
       f, site_->anchors[anchor_index].position, t.height_m,
-      corrected_range(m.range_m, params_.range_bias_m, params_.range_bias_per_m) -
+      t.bias.unscaled(anchor_index, corrected_range(m.range_m, params_.range_bias_m,
+                                                    params_.range_bias_per_m)) -
           t.bias.offset_m(anchor_index),
       noise);
 
@@ -315,7 +326,7 @@ bool TwrEstimator::epoch_observations(const Track& t, utime_t now, bool learned,
   for (const auto& [k, r] : latest) {
     double offset = t.bias.offset_m(k);
     if (!learned) {
-      offset = configured_offset(params_, t.tag_id, site_->anchors[k].id);
+      offset = pair_setting(params_.range_offsets_m, t.tag_id, site_->anchors[k].id);
       if (std::isnan(offset)) offset = 0;
     }
     obs.push_back({site_->anchors[k].position, r - offset});

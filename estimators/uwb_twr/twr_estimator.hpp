@@ -66,6 +66,10 @@ struct TwrParams {
   // Known per-pair offsets (antenna delays), removed before use: "A1" for an anchor with any tag,
   // "T1/A1" for one pair (ips-uwb-calibrate writes them). The start of the learned offsets.
   std::map<std::string, double> range_offsets_m;
+  // Known per-pair scale factors s, keyed as range_offsets_m: range = (1 + s) d + offset, so a
+  // range is divided by 1 + s before its offset is taken off ([-0.1, 0.1]; ips-uwb-calibrate
+  // --scale writes them). Not learned.
+  std::map<std::string, double> range_scales;
   // Each tag-anchor pair's constant range offset learned online (RangeBias, models/
   // range_bias.hpp): real DW1000 pairs read long by +0.08 to +0.32 m each; unlearned, the
   // offset looks like NLOS to the asymmetric gate. bias_prior_sigma_m: its spread before any
@@ -84,6 +88,11 @@ struct TwrParams {
 
 // Reads `estimators.uwb_twr` of the site; throws ConfigError on a bad value.
 TwrParams parse_twr_params(const YamlField& section);
+
+// A per-pair setting as the trackers read it (range_offsets_m, range_scales): "TAG/ANCHOR", else
+// "ANCHOR", else NaN.
+double pair_setting(const std::map<std::string, double>& values, const std::string& tag_id,
+                    const std::string& anchor_id);
 
 // A tag's per-pair range offsets as the site sets them up (range_offsets_m: "T1/A1", else "A1";
 // learned unless learn_bias is off), one per site anchor: ips-uwb-twr's and ips-fuse's start.

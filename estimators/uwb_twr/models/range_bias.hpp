@@ -74,6 +74,13 @@ class PairOffsets {
     for (Eigen::Index i = 0; i < f; ++i) var_(free_[static_cast<size_t>(i)]) = cov0(i, i);
   }
   size_t size() const { return static_cast<size_t>(b_.size()); }
+  // Each pair's configured scale factor s (range = (1 + s) d + offset; range_scales, written by
+  // ips-uwb-calibrate --scale), not learned: a range is divided by 1 + s before its offset is
+  // taken off, so the offsets (configured and learned) are in the unscaled ranges' terms.
+  void set_scales(std::vector<double> scales) { scales_ = std::move(scales); }
+  double unscaled(size_t k, double range_m) const {
+    return k < scales_.size() ? range_m / (1.0 + scales_[k]) : range_m;
+  }
   double offset_m(size_t k) const { return b_(static_cast<Eigen::Index>(k)); }
   // The offset's variance once any epoch has been learned from; 0 before (where the geometry
   // never lets it be learned, e.g. four anchors in 3D, the prior's spread would inflate every
@@ -147,6 +154,7 @@ class PairOffsets {
   }
 
   Eigen::VectorXd b0_, learned_, b_, var_, y_;
+  std::vector<double> scales_;  // per site anchor; empty: none
   Eigen::MatrixXd A_, info0_;  // the sums of the epochs' M / r; the prior's information
   std::vector<Eigen::Index> free_;  // the learned offsets' indices
   int64_t epochs_ = 0;              // epochs learned from

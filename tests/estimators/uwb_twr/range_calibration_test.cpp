@@ -98,6 +98,85 @@ TEST(RangeCalibration, ScaleIsTheLeastSquaresSlope) {
   EXPECT_NEAR(r.pairs[0].scale_bias_m, 0.2, 1e-5);
 }
 
+// With fit_scale (ips-uwb-calibrate --scale) the scale is used and the offset is that of
+// range / (1 + scale) - d, which the trackers take off after dividing by 1 + scale: both ranges
+// exact then. Written as range_scales beside the offsets; a pair whose distances hardly vary
+// keeps scale 0; a scale beyond the site's bound is refused; offsets written without scales
+// drop the stale scales of their keys.
+TEST(RangeCalibration, FittedScaleIsWrittenAndTheOffsetIsInItsTerms) {
+  const Site site = parse_site_text(kSiteText, "test");
+  Capture c;
+  for (int i = 0; i <= 200; ++i) c.truth["T1"].push_back({i * 100000, walk(i * 0.1)});
+  const std::map<std::string, std::pair<double, double>> truth_fit = {  // scale, offset
+      {"A1", {0.01, 0.2}}, {"A2", {-0.004, 0.1}}, {"A3", {0.0, 0.05}}};
+  for (const auto& [anchor, sb] : truth_fit)
+    for (int k = 0; k < 100; ++k) {
+      const double t = 0.13 + k * 0.2;
+      const double d = (walk(t) - site.find_anchor(anchor)->position).norm();
+      c.ranges.push_back({"T1", anchor, static_cast<int64_t>(std::llround(t * 1e6)),
+                          (1 + sb.first) * d + sb.second});
+    }
+  RangeCalibrationOptions opts;
+  opts.fit_scale = true;
+  const auto r = fit_range_offsets(site, c.ranges, c.truth, opts);
+  ASSERT_EQ(r.pairs.size(), 3u);
+  for (const auto& p : r.pairs) {
+    const auto [scale, offset] = truth_fit.at(p.anchor_id);
+    EXPECT_EQ(p.scale_used, scale != 0.0) << p.anchor_id;  // exact 0: not off 1 by 3 se
+    EXPECT_NEAR(p.scale, scale, 1e-6) << p.anchor_id;
+    EXPECT_NEAR(p.offset_m, offset / (1 + scale), 1e-5) << p.anchor_id;
+    EXPECT_NEAR(p.rms_after_m, 0.0, 1e-5) << p.anchor_id;
+  }
+  const std::string text =
+      site_with_offsets_yaml(site, offsets_to_write(r.pairs), {}, scales_to_write(r.pairs));
+  const TwrParams back = parse_twr_params(parse_site_text(text, "back").estimator_params("uwb_twr"));
+  EXPECT_NEAR(pair_setting(back.range_scales, "T1", "A1"), 0.01, 1e-6);
+  EXPECT_NEAR(pair_setting(back.range_scales, "T1", "A2"), -0.004, 1e-6);
+  EXPECT_EQ(back.range_scales.count("A3"), 0u);  // exactly 0: not used, not written
+  // What the trackers do with a range: divide, then take the offset off.
+  for (const auto& [anchor, sb] : truth_fit) {
+    const double d = 4.0, range = (1 + sb.first) * d + sb.second;
+    const double written = pair_setting(back.range_scales, "T1", anchor);
+    EXPECT_NEAR(range / (1 + (std::isnan(written) ? 0.0 : written)) -
+                    pair_setting(back.range_offsets_m, "T1", anchor),
+                d, 1e-4)
+        << anchor;
+  }
+  // Without --scale the offsets are for unscaled ranges: the written keys' scales go.
+  const std::string plain = site_with_offsets_yaml(parse_site_text(text, "scaled"),
+                                                   {{"A1", 0.2}, {"A2", 0.1}}, {});
+  const TwrParams p2 = parse_twr_params(parse_site_text(plain, "p").estimator_params("uwb_twr"));
+  EXPECT_EQ(p2.range_scales.count("A1"), 0u);
+  EXPECT_EQ(p2.range_scales.count("A2"), 0u);
+  EXPECT_TRUE(p2.range_scales.empty());
+  // A standing tag: no spread of distances, no scale (0), the plain median offset.
+  Capture still;
+  for (int i = 0; i <= 200; ++i) still.truth["T1"].push_back({i * 100000, walk(0.0)});
+  for (int k = 0; k < 100; ++k)
+    still.ranges.push_back({"T1", "A1", static_cast<int64_t>(std::llround((0.13 + k * 0.2) * 1e6)),
+                            (walk(0.0) - site.find_anchor("A1")->position).norm() + 0.2 +
+                                0.01 * ((k % 5) - 2)});
+  const auto rs = fit_range_offsets(site, still.ranges, still.truth, opts);
+  ASSERT_EQ(rs.pairs.size(), 1u);
+  EXPECT_FALSE(rs.pairs[0].scale_used);
+  EXPECT_NEAR(rs.pairs[0].offset_m, 0.2, 1e-9);
+  EXPECT_TRUE(scales_to_write(rs.pairs).empty());
+  // A scale of 20 % is beyond the site's bound: refused even with force.
+  Capture wild;
+  wild.truth = c.truth;
+  for (const auto& rg : c.ranges)
+    if (rg.anchor_id == "A1") {
+      const double t = static_cast<double>(rg.utime) * 1e-6;
+      wild.ranges.push_back({"T1", "A1", rg.utime,
+                             1.2 * (walk(t) - site.find_anchor("A1")->position).norm()});
+    }
+  opts.force = true;
+  const auto rw = fit_range_offsets(site, wild.ranges, wild.truth, opts);
+  ASSERT_EQ(rw.pairs.size(), 1u);
+  EXPECT_NE(rw.pairs[0].refused.find("scale +0.2000 outside"), std::string::npos)
+      << rw.pairs[0].refused;
+}
+
 TEST(RangeCalibration, TruthMustBeWithinTheWindowOnBothSides) {
   const Site site = parse_site_text(kSiteText, "test");
   TruthTracks truth;
@@ -150,10 +229,10 @@ TEST(RangeCalibration, SiteKeepsOtherKeysAndTheTrackersReadTheOffsets) {
   const std::map<std::string, double> want = {
       {"A2", 0.2}, {"A3", 0.5}, {"T2/A1", 0.3}, {"T2/A3", -0.15}};
   EXPECT_EQ(p.range_offsets_m, want);
-  EXPECT_NEAR(lookup_offset(p.range_offsets_m, "T1", "A2"), 0.2, 1e-12);
-  EXPECT_NEAR(lookup_offset(p.range_offsets_m, "T2", "A3"), -0.15, 1e-12);
-  EXPECT_NEAR(lookup_offset(p.range_offsets_m, "T1", "A3"), 0.5, 1e-12);
-  EXPECT_TRUE(std::isnan(lookup_offset(p.range_offsets_m, "T1", "A1")));
+  EXPECT_NEAR(pair_setting(p.range_offsets_m, "T1", "A2"), 0.2, 1e-12);
+  EXPECT_NEAR(pair_setting(p.range_offsets_m, "T2", "A3"), -0.15, 1e-12);
+  EXPECT_NEAR(pair_setting(p.range_offsets_m, "T1", "A3"), 0.5, 1e-12);
+  EXPECT_TRUE(std::isnan(pair_setting(p.range_offsets_m, "T1", "A1")));
 }
 
 // The simulated lab, 30 s, every tag-anchor pair offset by 0.1 to 0.3 m (plus the scenario's
@@ -216,7 +295,7 @@ TEST(RangeCalibrationSim, BiasedLabOffsetsRecoveredAndResidualMediansZeroed) {
     const auto lo = std::prev(hi);
     const double f = double(s.utime - lo->utime) / double(hi->utime - lo->utime);
     const Eigen::Vector3d p = lo->position + f * (hi->position - lo->position);
-    res[s.anchor_id].push_back(s.range_m - lookup_offset(offsets, s.tag_id, s.anchor_id) -
+    res[s.anchor_id].push_back(s.range_m - pair_setting(offsets, s.tag_id, s.anchor_id) -
                                (p - a->position).norm());
   }
   ASSERT_EQ(res.size(), 4u);

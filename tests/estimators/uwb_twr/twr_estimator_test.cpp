@@ -448,6 +448,19 @@ TEST(TwrEstimator, RangeBiasIsRemovedWhenConfigured) {
   // Learned online (the default), the offset costs less than left in (a static tag: only what
   // its one geometry observes is learned).
   EXPECT_LT(error(""), 0.6 * error(", learn_bias: false"));
+  // Per pair (range_scales, range_offsets_m; ips-uwb-calibrate --scale): divided by 1 + s, then
+  // the offset off. Here measured = 1.0101 (true + 0.1), so s = 0.0101..., offset 0.1.
+  EXPECT_LT(error(", learn_bias: false, range_scales: {A1: 0.01010101, A2: 0.01010101, "
+                  "A3: 0.01010101, T1/A4: 0.01010101}, range_offsets_m: {A1: 0.1, A2: 0.1, "
+                  "A3: 0.1, A4: 0.1}"),
+            0.005);
+  EXPECT_GT(error(", learn_bias: false, range_offsets_m: {A1: 0.1, A2: 0.1, A3: 0.1, A4: 0.1}"),
+            0.01);
+  EXPECT_THROW(parse_twr_params(parse_site_text(
+                                    "anchors: []\nestimators:\n  uwb_twr: {range_scales: {A1: 0.2}}\n",
+                                    "test")
+                                    .estimator_params("uwb_twr")),
+               ConfigError);
   EXPECT_THROW(parse_twr_params(parse_site_text("estimators:\n  uwb_twr: {range_bias_per_m: 0.5}\n",
                                                 "test")
                                     .estimator_params("uwb_twr")),

@@ -68,6 +68,10 @@ if run 0 "$CAL" "$WORK/cal.lcm" --scale --out "$WORK/site.yaml"; then
         $8 < $7 && ($9 + 0) == 0 && $10 == "-" && $11 != "" && $12 != "") } END { exit !ok }' \
       "$WORK/out" || fail "$a row: $(grep "^T1 *$a " "$WORK/out")"
   done
+  # The radios have no scale: no fitted scale is 3 standard errors off 0, none is written.
+  grep -q "^scales: used for none; 0 for T1/A1 T1/A2 T1/A3 T1/A4$" "$WORK/out" &&
+    ok "no scale written" || fail "scales: $(grep '^scales:' "$WORK/out")"
+  grep -q "range_scales" "$WORK/site.yaml" && fail "range_scales written"
   grep -q "^wrote $WORK/site.yaml (4 offsets)$" "$WORK/out" || fail "no 'wrote' line"
   head -1 "$WORK/site.yaml" | grep -q "^# Range offsets by ips-uwb-calibrate from .*cal.lcm: 4 pairs" &&
     ok "header comment" || fail "header: $(head -1 "$WORK/site.yaml")"
