@@ -107,6 +107,38 @@ MultilaterationResult multilaterate(std::span<const RangeObservation> obs,
   return multilaterate_lm(obs, opts, initial);
 }
 
+MultilaterationResult multilaterate_dropping_one(std::span<const RangeObservation> obs,
+                                                 const MultilaterationOptions& opts,
+                                                 MultilaterationSolver solver,
+                                                 double max_residual_m) {
+  const size_t needed = opts.fixed_height ? 3 : 4;
+  // The residual per degree of freedom: with one range to spare, a 1.3 m NLOS range leaves an
+  // RMS over all ranges of only about 0.3 m, but the whole of it in the one spare dimension.
+  const auto consistent = [&](const MultilaterationResult& r, size_t n) {
+    return r.ok && r.residual_rms_m * std::sqrt(static_cast<double>(n) /
+                                                static_cast<double>(n - needed)) <=
+                       max_residual_m;
+  };
+  MultilaterationResult res = multilaterate(obs, opts, solver);
+  if (obs.size() <= needed || consistent(res, obs.size())) return res;
+  // An NLOS range in the set: without each range in turn, the best fit of those that can still
+  // be checked (a set with no range to spare fits any one NLOS range exactly).
+  MultilaterationResult best;
+  best.failure = "no consistent subset of the ranges";
+  if (obs.size() >= needed + 2) {
+    std::vector<RangeObservation> subset;
+    for (size_t skip = 0; skip < obs.size(); ++skip) {
+      subset.clear();
+      for (size_t k = 0; k < obs.size(); ++k)
+        if (k != skip) subset.push_back(obs[k]);
+      MultilaterationResult r = multilaterate(subset, opts, solver);
+      if (consistent(r, subset.size()) && (!best.ok || r.residual_rms_m < best.residual_rms_m))
+        best = r;
+    }
+  }
+  return best;
+}
+
 MultilaterationResult multilaterate_foy(std::span<const RangeObservation> obs,
                                         const MultilaterationOptions& opts) {
   MultilaterationResult out;

@@ -53,6 +53,15 @@ MultilaterationResult multilaterate(std::span<const RangeObservation> obs,
                                     MultilaterationSolver solver,
                                     Eigen::Vector3d initial = Eigen::Vector3d::Constant(
                                         std::numeric_limits<double>::quiet_NaN()));
+// A start fix that one NLOS range cannot spoil: the fix of all ranges when its residual RMS per
+// degree of freedom is within max_residual_m; else, where two ranges can be spared, the best
+// such fix leaving one range out; else !ok (the caller waits for a consistent epoch). A set with
+// no range to spare (3 in 2D, 4 in 3D) is returned as solved: nothing can check it, and the
+// caller must not trust it much. ips-uwb-twr's and ips-fuse's start.
+MultilaterationResult multilaterate_dropping_one(std::span<const RangeObservation> obs,
+                                                 const MultilaterationOptions& opts,
+                                                 MultilaterationSolver solver,
+                                                 double max_residual_m);
 MultilaterationResult multilaterate_gauss_newton(std::span<const RangeObservation> obs,
                                                  const MultilaterationOptions& opts,
                                                  Eigen::Vector3d initial = Eigen::Vector3d::Constant(

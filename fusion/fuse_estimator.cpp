@@ -231,6 +231,7 @@ FuseEstimator::Track* FuseEstimator::find_or_add_track(const std::string& tag_id
     track.history.clear();
     track.snapshots.clear();
     track.init_ranges.clear();
+    track.waiting_since = 0;
     track.have_last_dr = false;
     ++stats_.gap_restarts;
     char text[160];
@@ -273,6 +274,7 @@ void FuseEstimator::start(const std::string& tag_id, Track& t, utime_t time,
   t.history.clear();
   t.snapshots.clear();
   t.init_ranges.clear();
+  t.waiting_since = 0;
   t.newest = std::max(t.newest, time);
   t.tally.restart(0, 0);
   ++stats_.initialisations;
@@ -287,18 +289,34 @@ void FuseEstimator::try_start_from_ranges(const std::string& tag_id, Track& t) {
   std::map<int, double> latest;
   for (const auto& m : t.init_ranges) latest[m.anchor] = m.value;
   const bool planar = planar_for(tag_id);
-  if (static_cast<int>(latest.size()) < (planar ? 3 : 4)) return;
+  const int needed = planar ? 3 : 4;
+  // As ips-uwb-twr: for the first second of waiting (and two epochs) one range more than a fix
+  // needs, where the site has it, so that one NLOS range shows in the residual and is left out;
+  // from the bare minimum nothing tells a 1.3 m long range, and the start would be that far off
+  // with the geometry's small sigma.
+  if (t.waiting_since == 0) t.waiting_since = t.init_ranges.front().t;
+  int required = needed, enabled_uwb_anchors = 0;
+  for (const auto& a : site_->anchors) enabled_uwb_anchors += a.enabled && a.kind == "uwb";
+  if (newest - t.waiting_since <
+      std::max<utime_t>(1'000'000, 2 * s_to_utime(params_.epoch_window_s)))
+    required = std::min(needed + 1, enabled_uwb_anchors);
+  if (static_cast<int>(latest.size()) < std::max(needed, required)) return;
   std::vector<RangeObservation> obs;
   for (const auto& [a, r] : latest) obs.push_back({site_->anchors[static_cast<size_t>(a)].position, r});
   MultilaterationOptions o;
   o.fixed_height = planar;
   o.height_m = planar ? tag_height(tag_id) : std::numeric_limits<double>::quiet_NaN();
+  const double max_residual = 3.0 * params_.range_sigma_m + 0.2;
   const MultilaterationResult fix =
-      multilaterate(obs, o, MultilaterationSolver::kLevenbergMarquardt);
+      multilaterate_dropping_one(obs, o, MultilaterationSolver::kLevenbergMarquardt, max_residual);
   if (!fix.ok) return;
-  const double sigma = std::max(params_.range_sigma_m,
-                                std::sqrt(std::max(0.0, fix.covariance_unit.trace())) *
-                                    params_.range_sigma_m);
+  // The residual left (a consistent set still has some) widens the start as the noise does; a
+  // start no spare range could check may hold an NLOS range of a metre or more.
+  double sigma = std::max(params_.range_sigma_m,
+                          std::sqrt(std::max(0.0, fix.covariance_unit.trace())) *
+                              std::max(params_.range_sigma_m, fix.residual_rms_m));
+  if (static_cast<int>(obs.size()) <= needed)
+    sigma = std::max(sigma, uwb_twr::kUncheckedStartSigmaM);
   start(tag_id, t, newest, fix.position, sigma);
 }
 

@@ -243,6 +243,7 @@ class FuseEstimator {
     uint32_t dr_bit = 0;              // the dead-reckoning source's bit, once one moved the track
     Eigen::Vector3d last_dr_position = Eigen::Vector3d::Zero();
     std::deque<Measurement> init_ranges;  // waiting for a multilateration start
+    utime_t waiting_since = 0;            // the first range of the wait (0: not waiting)
     // The radios' per-pair range offsets, learned as ips-uwb-twr does (uwb_twr/models/
     // range_bias.hpp) from the last epoch's ranges (value: less the configured bias only).
     uwb_twr::PairOffsets offsets;

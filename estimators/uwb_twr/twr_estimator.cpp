@@ -432,22 +432,9 @@ bool TwrEstimator::try_initialise(Track& t, utime_t now, bool only_if_elsewhere)
   o.fixed_height = t.planar;
   o.height_m = t.height_m;
   const double max_residual = 3.0 * params_.range_sigma_m + 0.2;
-  MultilaterationResult res = multilaterate(obs, o, params_.init_solver);
-  if (!(res.ok && res.residual_rms_m <= max_residual) &&
-      static_cast<int>(obs.size()) >= dims + 2) {
-    // A large residual means an NLOS range in the set: try without each range in turn and keep
-    // the best fit (one blocked anchor must not keep the tag from starting).
-    MultilaterationResult best;
-    for (size_t skip = 0; skip < obs.size(); ++skip) {
-      std::vector<RangeObservation> subset;
-      for (size_t k = 0; k < obs.size(); ++k)
-        if (k != skip) subset.push_back(obs[k]);
-      MultilaterationResult r = multilaterate(subset, o, params_.init_solver);
-      if (r.ok && (!best.ok || r.residual_rms_m < best.residual_rms_m)) best = r;
-    }
-    res = best;
-  }
-  if (!res.ok || res.residual_rms_m > max_residual) return false;
+  const MultilaterationResult res =
+      multilaterate_dropping_one(obs, o, params_.init_solver, max_residual);
+  if (!res.ok) return false;
   if (only_if_elsewhere) {
     // Every anchor agrees on a fix the track's covariance does not cover: the track is wrong.
     const Eigen::VectorXd track =
@@ -459,7 +446,10 @@ bool TwrEstimator::try_initialise(Track& t, utime_t now, bool only_if_elsewhere)
       return false;
   }
 
-  const double sigma = std::max(params_.range_sigma_m, res.residual_rms_m);
+  // A start no spare range could check may hold an NLOS range of a metre or more.
+  const double sigma = static_cast<int>(obs.size()) <= dims + 1
+                           ? kUncheckedStartSigmaM
+                           : std::max(params_.range_sigma_m, res.residual_rms_m);
   const double v_var = params_.init_velocity_sigma_mps * params_.init_velocity_sigma_mps;
   auto init = [&](auto& f) {
     f.x.setZero();

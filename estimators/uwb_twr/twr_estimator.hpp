@@ -29,6 +29,10 @@
 
 namespace ips::uwb_twr {
 
+// The position sigma of a start from ranges with none to spare (3 in 2D, 4 in 3D): nothing
+// checks them, and one may be NLOS by a metre or more (ips-uwb-twr and ips-fuse).
+inline constexpr double kUncheckedStartSigmaM = 1.0;
+
 struct TwrParams {
   bool force_3d = false;          // estimate height even when the site gives one
   // Per-epoch solver for (re-)initialisation.

@@ -29,6 +29,38 @@ TEST(Multilateration, ExactRangesGiveExactPosition2D) {
   EXPECT_LT(r.residual_rms_m, 1e-6);
 }
 
+// The start fix of ips-uwb-twr and ips-fuse: one NLOS range of 1.3 m among four anchors in 2D
+// (one range to spare) leaves a small RMS over all four but fails per degree of freedom, and no
+// three can check each other: no start (wait). A fifth anchor lets the NLOS one be left out. A
+// set with nothing to spare is returned as solved (the callers widen its sigma).
+TEST(Multilateration, DroppingOneLeavesOutAnNlosRangeOnlyWhereTheRestCanBeChecked) {
+  MultilaterationOptions o;
+  o.fixed_height = true;
+  o.height_m = 1.2;
+  const Eigen::Vector3d p(3.0, 5.5, 1.2);
+  auto four = ranges_to(p, 1.3);
+  const auto all = multilaterate(four, o, MultilaterationSolver::kLevenbergMarquardt);
+  ASSERT_TRUE(all.ok);
+  EXPECT_LT(all.residual_rms_m, 0.5);  // over all ranges it would pass a 0.5 m check
+  EXPECT_FALSE(
+      multilaterate_dropping_one(four, o, MultilaterationSolver::kLevenbergMarquardt, 0.5).ok);
+  auto five = four;
+  five.push_back({Eigen::Vector3d(5, -3, 2.4), (p - Eigen::Vector3d(5, -3, 2.4)).norm()});
+  const auto r =
+      multilaterate_dropping_one(five, o, MultilaterationSolver::kLevenbergMarquardt, 0.5);
+  ASSERT_TRUE(r.ok) << r.failure;
+  EXPECT_NEAR((r.position - p).norm(), 0.0, 1e-4);
+  const auto clean = multilaterate_dropping_one(ranges_to(p), o,
+                                                MultilaterationSolver::kLevenbergMarquardt, 0.5);
+  ASSERT_TRUE(clean.ok);
+  EXPECT_NEAR((clean.position - p).norm(), 0.0, 1e-6);
+  four.pop_back();  // three: nothing to spare, solved as given (wrong by the NLOS range)
+  const auto three =
+      multilaterate_dropping_one(four, o, MultilaterationSolver::kLevenbergMarquardt, 0.5);
+  ASSERT_TRUE(three.ok);
+  EXPECT_GT((three.position - p).norm(), 0.5);
+}
+
 TEST(Multilateration, ExactRangesGiveExactPosition3DBelowCoplanarAnchors) {
   MultilaterationOptions o;
   auto r = multilaterate_lm(ranges_to({2.5, 6.0, 0.9}), o);
