@@ -27,6 +27,7 @@
 #include "estimators/uwb_survey/anchor_survey.hpp"
 #include "estimators/uwb_survey/range_collector.hpp"
 #include "estimators/uwb_survey/surveyed_site.hpp"
+#include "estimators/uwb_twr/offsets_site_file.hpp"
 #include "estimators/uwb_twr/range_calibration.hpp"
 #include "estimators/uwb_twr/twr_estimator.hpp"
 
@@ -376,19 +377,7 @@ int main(int argc, char** argv) {
               fixed(delays.tag_delay_m) + " m); residual RMS " + fixed(delays.residual_rms_m) +
               " m.",
           "Comments of the input site are not kept."};
-      std::string text;
-      try {
-        text = twr::site_with_offsets_yaml(site, offsets, header);
-      } catch (const ips::ConfigError& err) {
-        ips::print_fatal(kProgram, err.what());
-        return 1;
-      }
-      if (std::string error; !ips::write_text_file(out_path, text, error)) {
-        ips::print_fatal(kProgram, error);
-        return 1;
-      }
-      std::printf("wrote %s (%zu offsets)\n", ips::printable(out_path).c_str(), offsets.size());
-      return 0;
+      return twr::write_offsets_site(kProgram, site, offsets, header, out_path);
     }
     std::vector<us::SurveyAnchor> anchors;
     std::optional<Eigen::Vector3d> known;

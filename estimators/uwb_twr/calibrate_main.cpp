@@ -16,6 +16,7 @@
 #include "core/log_input.hpp"
 #include "core/node.hpp"
 #include "core/text_escape.hpp"
+#include "estimators/uwb_twr/offsets_site_file.hpp"
 #include "estimators/uwb_twr/range_calibration.hpp"
 #include "estimators/uwb_twr/twr_estimator.hpp"
 
@@ -218,20 +219,8 @@ int main(int argc, char** argv) {
         "Range offsets by ips-uwb-calibrate from " + ips::printable(log_path) + ": " +
             std::to_string(offsets.size()) + " pairs (estimators.uwb_twr.range_offsets_m).",
         "Comments of the input site are not kept."};
-    std::string text;
-    try {
-      text = twr::site_with_offsets_yaml(
-          *site, offsets, header,
-          scale ? twr::scales_to_write(result.pairs) : std::map<std::string, double>{});
-    } catch (const ips::ConfigError& err) {
-      ips::print_fatal(kProgram, err.what());
-      return 1;
-    }
-    if (std::string error; !ips::write_text_file(out_path, text, error)) {
-      ips::print_fatal(kProgram, error);
-      return 1;
-    }
-    std::printf("wrote %s (%zu offsets)\n", ips::printable(out_path).c_str(), offsets.size());
-    return 0;
+    return twr::write_offsets_site(
+        kProgram, *site, offsets, header, out_path,
+        scale ? twr::scales_to_write(result.pairs) : std::map<std::string, double>{});
   });
 }
