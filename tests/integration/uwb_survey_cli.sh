@@ -10,40 +10,9 @@ ROOT=$(cd "$2" && pwd)
 export PYTHONPATH=$(cd "$(dirname "$0")" && pwd)  # lcm_log.py
 WORK=$(mktemp -d)
 trap 'rm -rf "$WORK"' EXIT
-failures=0
-fail() {
-  echo "FAIL: $*"
-  failures=$((failures + 1))
-}
-ok() { echo "ok: $*"; }
+. "$ROOT/tests/integration/cli_check_lib.sh"  # fail, ok, run, expect_error; counts failures
+RUN_STDOUT_LINES=20  # run prints this much of stdout on a wrong status
 SURVEY="$BIN/ips-uwb-survey"
-
-# run STATUS CMD...: runs CMD, checks its exit status; stdout in $WORK/out, stderr in $WORK/err.
-run() {
-  local want=$1 status=0
-  shift
-  timeout 60 "$@" >"$WORK/out" 2>"$WORK/err" || status=$?
-  if [ "$status" -ne "$want" ]; then
-    fail "$* -> status $status (want $want)"
-    sed 's/^/  stdout: /' "$WORK/out" | head -20
-    sed 's/^/  stderr: /' "$WORK/err" | head -10
-    return 1
-  fi
-}
-
-# expect_error STATUS PATTERN CMD...: status, exactly one stderr line, matching PATTERN.
-expect_error() {
-  local want=$1 pattern=$2
-  shift 2
-  if run "$want" "$@"; then
-    if [ "$(wc -l <"$WORK/err")" -eq 1 ] && grep -Eq -- "$pattern" "$WORK/err"; then
-      ok "$(cat "$WORK/err")"
-    else
-      fail "$*: stderr does not match '$pattern':"
-      sed 's/^/  stderr: /' "$WORK/err" | head -10
-    fi
-  fi
-}
 
 # positions FILE: "ID X Y Z" for each anchor of a site file written by ips-uwb-survey (flow
 # style, as the lab's), without a YAML library.

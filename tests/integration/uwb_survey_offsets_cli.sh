@@ -11,40 +11,8 @@ BIN=$(cd "$1" && pwd)
 ROOT=$(cd "$2" && pwd)
 WORK=$(mktemp -d)
 trap 'rm -rf "$WORK"' EXIT
-failures=0
-fail() {
-  echo "FAIL: $*"
-  failures=$((failures + 1))
-}
-ok() { echo "ok: $*"; }
+. "$ROOT/tests/integration/cli_check_lib.sh"  # fail, ok, run, expect_error; counts failures
 SURVEY="$BIN/ips-uwb-survey"
-
-# run STATUS CMD...: runs CMD, checks its exit status; stdout in $WORK/out, stderr in $WORK/err.
-run() {
-  local want=$1 status=0
-  shift
-  timeout 60 "$@" >"$WORK/out" 2>"$WORK/err" || status=$?
-  if [ "$status" -ne "$want" ]; then
-    fail "$* -> status $status (want $want)"
-    sed 's/^/  stdout: /' "$WORK/out" | head -30
-    sed 's/^/  stderr: /' "$WORK/err" | head -10
-    return 1
-  fi
-}
-
-# expect_error STATUS PATTERN CMD...: status, exactly one stderr line, matching PATTERN.
-expect_error() {
-  local want=$1 pattern=$2
-  shift 2
-  if run "$want" "$@"; then
-    if [ "$(wc -l <"$WORK/err")" -eq 1 ] && grep -Eq -- "$pattern" "$WORK/err"; then
-      ok "$(cat "$WORK/err")"
-    else
-      fail "$*: stderr does not match '$pattern':"
-      sed 's/^/  stderr: /' "$WORK/err" | head -10
-    fi
-  fi
-}
 
 # delayed EXTRA OUT: the lab scenario with device delays 0.05-0.15 m and EXTRA uwb_twr lines.
 delayed() {
