@@ -2,9 +2,10 @@
 # ips-pdr end to end over real LCM multicast in a private network namespace: ips-sim
 # (walk-square, seed 1, 174 s at 10x: at 20x, 2000 IMU datagrams a second, a loaded machine dropped
 # one), ips-pdr (site from the SITE message) and the real
-# lcm-logger as separate processes. On the recorded log: STEP has the in-process run's 278 steps
-# (a live run sees the same samples in the same order; 273 to 278 only where ips-pdr's HEALTH
-# reports messages lost on the way in), POSE_PDR as many poses, the last one
+# lcm-logger as separate processes. On the recorded log: ips-pdr counted the in-process run's 278
+# steps (the last STEP's index: a live run sees the same samples in the same order; 273 to 278
+# only where ips-pdr's HEALTH reports messages lost on the way in), the logger recorded them and
+# POSE_PDR as many poses (at most 3 missed by the logger), the last one
 # within 5 m of the start (in-process closure: 3.46 m), and HEALTH from ips-pdr is there.
 # Exit 77 (skipped) when no network namespace can be made here.
 set -euo pipefail
@@ -29,8 +30,12 @@ stop $logger lcm-logger
 
 "$BIN/ips-export" "$WORK/live.lcm" --out "$WORK/csv" --channels 'STEP|POSE_PDR' >/dev/null ||
   fail "ips-export failed"
-steps=$(($(wc -l <"$WORK/csv/STEP.csv") - 1))
+# ips-pdr's own count is the last STEP's index (from 1); the rows are what lcm-logger recorded
+# (the real tool: a message it misses under load is not ips-pdr's).
+recorded=$(($(wc -l <"$WORK/csv/STEP.csv") - 1))
+steps=$(python3 -c 'import csv, sys; print(max([int(r["index"]) for r in csv.DictReader(open(sys.argv[1]))] or [0]))' "$WORK/csv/STEP.csv")
 poses=$(($(wc -l <"$WORK/csv/POSE_PDR.csv") - 1))
+echo "STEP: ips-pdr counted $steps (the last index), lcm-logger recorded $recorded; POSE_PDR recorded $poses"
 # What ips-pdr said it lost on the way in (its HEALTH: kernel, LCM queue, senders' sequence
 # gaps). A loaded machine (the ASan build, 1000 IMU datagrams a second) can lose samples, and a
 # lost sample can cost a step: then, and only then, a few steps fewer are right, said, not silent.
@@ -60,7 +65,11 @@ else
   [ "$steps" -le 278 ] && [ "$steps" -ge 273 ] ||
     fail "STEP: $steps steps (expected 273 to 278 with $lost messages lost)"
 fi
-[ "$poses" -eq "$steps" ] || fail "POSE_PDR: $poses poses (expected one per step, $steps)"
+# The logger may miss a few of ips-pdr's messages on a loaded machine, never invent any.
+[ "$recorded" -le "$steps" ] && [ "$recorded" -ge $((steps - 3)) ] ||
+  fail "STEP: lcm-logger recorded $recorded of ips-pdr's $steps steps"
+[ "$poses" -le "$steps" ] && [ "$poses" -ge $((steps - 3)) ] ||
+  fail "POSE_PDR: $poses poses (expected one per step, $steps, a few missed by the logger at most)"
 python3 - "$WORK/csv/POSE_PDR.csv" <<'PY' || fail "POSE_PDR: the walk does not close"
 import csv, math, sys
 rows = list(csv.DictReader(open(sys.argv[1])))
