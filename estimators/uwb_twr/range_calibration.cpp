@@ -96,6 +96,15 @@ RangeCalibration fit_range_offsets(const Site& site, const std::vector<RangeSamp
     p.anchor_id = key.second;
     p.ranges = c.ranges;
     p.n = static_cast<int64_t>(c.residual.size());
+    // range / (1 + scale) - d - offset for each range with truth: what a tracker with that
+    // scale and offset leaves.
+    const Collected& pair = c;  // a structured binding cannot be captured (clang, C++20)
+    const auto residuals = [&pair](double scale, double offset) {
+      std::vector<double> res(pair.range.size());
+      for (size_t i = 0; i < res.size(); ++i)
+        res[i] = pair.range[i] / (1.0 + scale) - pair.distance[i] - offset;
+      return res;
+    };
     p.offset_m = median(c.residual);
     double mean = 0;
     for (double x : c.residual) mean += x;
@@ -104,11 +113,10 @@ RangeCalibration fit_range_offsets(const Site& site, const std::vector<RangeSamp
     p.rms_before_m = rms(c.residual, 0.0);
     p.std_m = rms(c.residual, mean);
     p.rms_after_m = rms(c.residual, p.offset_m);
-    std::vector<double> after = c.residual;
-    for (double& x : after) x -= p.offset_m;
-    p.median_after_m = median(after);
+    p.median_after_m = median(residuals(0.0, p.offset_m));
     // Least squares range = slope d + b.
     p.scale = p.scale_bias_m = kNaN;
+    double distance_spread_m = 0;  // the distances' standard deviation
     if (p.n >= 2) {
       double md = 0, mr = 0;
       for (int64_t i = 0; i < p.n; ++i) md += c.distance[i], mr += c.range[i];
@@ -118,6 +126,7 @@ RangeCalibration fit_range_offsets(const Site& site, const std::vector<RangeSamp
       for (int64_t i = 0; i < p.n; ++i)
         sdd += (c.distance[i] - md) * (c.distance[i] - md),
             sdr += (c.distance[i] - md) * (c.range[i] - mr);
+      distance_spread_m = std::sqrt(sdd / static_cast<double>(p.n));
       if (sdd > 1e-9) {
         const double slope = sdr / sdd;
         p.scale = slope - 1.0;
@@ -132,37 +141,24 @@ RangeCalibration fit_range_offsets(const Site& site, const std::vector<RangeSamp
       }
     }
     // With the scale: the offset in the terms of the unscaled ranges the trackers use.
-    if (opts.fit_scale && std::isfinite(p.scale) && p.n >= 2) {
-      double md = 0;
-      for (double d : c.distance) md += d;
-      md /= static_cast<double>(p.n);
-      double var = 0;
-      for (double d : c.distance) var += (d - md) * (d - md);
-      // Only a scale the data show: distances that vary, and a slope off 1 by more than
-      // scale_min_se standard errors (NLOS and noise tilt a short line; a wrong scale costs more
-      // at long range than none).
-      if (std::sqrt(var / static_cast<double>(p.n)) >= opts.min_scale_spread_m &&
-          std::abs(p.scale) > opts.scale_min_se * p.scale_se) {
-        p.scale_used = true;
-        std::vector<double> res(c.range.size());
-        for (size_t i = 0; i < res.size(); ++i)
-          res[i] = c.range[i] / (1.0 + p.scale) - c.distance[i];
-        p.offset_m = median(res);
-        p.rms_after_m = rms(res, p.offset_m);
-        for (double& x : res) x -= p.offset_m;
-        p.median_after_m = median(res);
-      }
+    // Only a scale the data show: distances that vary, and a slope off 1 by more than
+    // scale_min_se standard errors (NLOS and noise tilt a short line; a wrong scale costs more at
+    // long range than none).
+    if (opts.fit_scale && std::isfinite(p.scale) && distance_spread_m >= opts.min_scale_spread_m &&
+        std::abs(p.scale) > opts.scale_min_se * p.scale_se) {
+      p.scale_used = true;
+      const std::vector<double> res = residuals(p.scale, 0.0);
+      p.offset_m = median(res);
+      p.rms_after_m = rms(res, p.offset_m);
+      p.median_after_m = median(residuals(p.scale, p.offset_m));
     }
     p.site_offset_m = pair_setting(site_offsets, p.tag_id, p.anchor_id);
     p.median_site_m = kNaN;
     if (std::isfinite(p.site_offset_m) && p.n > 0) {
       // As the trackers take them off: divided by the site's 1 + scale, then its offset.
-      double site_scale = pair_setting(site_scales, p.tag_id, p.anchor_id);
-      if (!std::isfinite(site_scale)) site_scale = 0;
-      std::vector<double> res(c.range.size());
-      for (size_t i = 0; i < res.size(); ++i)
-        res[i] = c.range[i] / (1.0 + site_scale) - c.distance[i] - p.site_offset_m;
-      p.median_site_m = median(res);
+      const double site_scale = pair_setting(site_scales, p.tag_id, p.anchor_id);
+      p.median_site_m =
+          median(residuals(std::isfinite(site_scale) ? site_scale : 0.0, p.site_offset_m));
     }
     if (p.n == 0) {
       p.refused = fmt::format("no range with truth ({} ranges)", p.ranges);
