@@ -1,4 +1,4 @@
-// libFuzzer target: deployment files (loggers/deploy/deployment.hpp) are text from the lab's
+// libFuzzer target: deployment files (tools/deploy/deployment.hpp) are text from the lab's
 // own hands, but a typo must still end in a ConfigError, never a crash or a hang. Whatever
 // parses goes on through the systemd units of every host and the status table (with one HEALTH
 // per process, so every row kind is built), and must keep its promises: every process of a host
@@ -10,9 +10,9 @@
 #include <string>
 
 #include "core/yaml_fields.hpp"
-#include "loggers/deploy/deployment.hpp"
-#include "loggers/deploy/status.hpp"
-#include "loggers/deploy/systemd_units.hpp"
+#include "tools/deploy/deployment.hpp"
+#include "tools/deploy/status.hpp"
+#include "tools/deploy/systemd_units.hpp"
 
 namespace {
 void check(bool ok, const char* what) {

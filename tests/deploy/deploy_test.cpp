@@ -1,4 +1,4 @@
-// ips-deploy's pure parts (loggers/deploy/): the deployment file and its errors, command and
+// ips-deploy's pure parts (tools/deploy/): the deployment file and its errors, command and
 // environment resolution, the systemd units, the restart back-off and policy, and the status
 // table from HEALTH. The expected values are docs/deployment.md's: its field tables, its error
 // lines, its uwb-twr unit and its back-off table.
@@ -15,10 +15,10 @@
 
 #include "core/time.hpp"
 #include "core/yaml_fields.hpp"
-#include "loggers/deploy/deployment.hpp"
-#include "loggers/deploy/status.hpp"
-#include "loggers/deploy/supervisor.hpp"
-#include "loggers/deploy/systemd_units.hpp"
+#include "tools/deploy/deployment.hpp"
+#include "tools/deploy/status.hpp"
+#include "tools/deploy/supervisor.hpp"
+#include "tools/deploy/systemd_units.hpp"
 
 namespace ips::deploy {
 namespace {

@@ -1,4 +1,4 @@
-# ips-deploy (loggers/deploy/): the deployment file and its errors, commands and environment,
+# ips-deploy (tools/deploy/): the deployment file and its errors, commands and environment,
 # the systemd units, the restart back-off and policy, and the status table from HEALTH. Paths
 # relative to tests/.
 ips_unit_test(deploy_test deploy/deploy_test.cpp)

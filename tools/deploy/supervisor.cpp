@@ -1,4 +1,4 @@
-#include "loggers/deploy/supervisor.hpp"
+#include "tools/deploy/supervisor.hpp"
 
 #include <fcntl.h>
 #include <signal.h>

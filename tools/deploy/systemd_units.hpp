@@ -9,7 +9,7 @@
 #include <map>
 #include <string>
 
-#include "loggers/deploy/deployment.hpp"
+#include "tools/deploy/deployment.hpp"
 
 namespace ips::deploy {
 

@@ -1,4 +1,4 @@
-#include "loggers/deploy/deployment.hpp"
+#include "tools/deploy/deployment.hpp"
 
 #include <algorithm>
 #include <functional>

@@ -7,7 +7,7 @@
 #include <vector>
 
 #include "core/time.hpp"
-#include "loggers/deploy/deployment.hpp"
+#include "tools/deploy/deployment.hpp"
 
 namespace ips::deploy {
 

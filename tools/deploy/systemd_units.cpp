@@ -1,4 +1,4 @@
-#include "loggers/deploy/systemd_units.hpp"
+#include "tools/deploy/systemd_units.hpp"
 
 #include <cmath>
 #include <cstdio>

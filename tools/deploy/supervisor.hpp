@@ -14,7 +14,7 @@
 #include <string>
 #include <vector>
 
-#include "loggers/deploy/deployment.hpp"
+#include "tools/deploy/deployment.hpp"
 
 namespace ips {
 class Node;

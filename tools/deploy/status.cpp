@@ -1,4 +1,4 @@
-#include "loggers/deploy/status.hpp"
+#include "tools/deploy/status.hpp"
 
 #include <algorithm>
 #include <cstdio>

@@ -20,10 +20,10 @@
 #include "core/node.hpp"
 #include "core/text_escape.hpp"
 #include "core/yaml_fields.hpp"
-#include "loggers/deploy/deployment.hpp"
-#include "loggers/deploy/status.hpp"
-#include "loggers/deploy/supervisor.hpp"
-#include "loggers/deploy/systemd_units.hpp"
+#include "tools/deploy/deployment.hpp"
+#include "tools/deploy/status.hpp"
+#include "tools/deploy/supervisor.hpp"
+#include "tools/deploy/systemd_units.hpp"
 
 namespace {
 
