@@ -40,6 +40,30 @@ std::optional<Eigen::Matrix3d> pose_covariance(const pose_t& m, bool horizontal_
     if (!(c(i, i) > 0)) return std::nullopt;
   return c;
 }
+
+const char* displacement_channel(DisplacementSource s) {
+  switch (s) {
+    case DisplacementSource::kInsModule: return "INS_MODULE";
+    case DisplacementSource::kPoseIns: return "POSE_INS";
+    case DisplacementSource::kStep: return "STEP";
+    case DisplacementSource::kAuto:
+    case DisplacementSource::kNone: break;
+  }
+  return "none";
+}
+
+// "T1: using INS_MODULE for displacements, ignoring STEP" (count 0: the note when it starts), or
+// with the count, "..., ignored 60 STEP"; a configured `none` uses no source.
+std::string ignored_text(const std::string& tag_id, DisplacementSource used,
+                         DisplacementSource ignored, int64_t count = 0) {
+  std::string s = printable(tag_id) + ": ";
+  s += used == DisplacementSource::kNone
+           ? std::string("no displacements (estimators.fuse.displacement: none)")
+           : std::string("using ") + displacement_channel(used) + " for displacements";
+  s += count == 0 ? std::string(", ignoring ")
+                  : ", ignored " + std::to_string(count) + " ";
+  return s + displacement_channel(ignored);
+}
 }  // namespace
 
 FuseParams parse_fuse_params(const YamlField& s) {
@@ -580,17 +604,32 @@ void FuseEstimator::maybe_publish(const std::string& tag_id, Track& t) {
   sink_(p);
 }
 
-bool FuseEstimator::accept_displacement(Track& t, DisplacementSource src) {
+bool FuseEstimator::accept_displacement(const std::string& tag_id, Track& t,
+                                        DisplacementSource src) {
   if (params_.displacement == DisplacementSource::kAuto) {
     if (t.displacement == DisplacementSource::kNone) t.displacement = src;
   } else {
     t.displacement = params_.displacement;
   }
-  if (t.displacement != src) {
-    ++stats_.dropped_other_source;
-    return false;
+  if (t.displacement == src) return true;
+  // One source moves a tag (a second would count the same walk twice): the others are left
+  // unused on purpose, which is no fault of the input. Said once per tag and source.
+  ++stats_.ignored_other_source;
+  IgnoredSource& ignored = ignored_[{tag_id, src}];
+  if (ignored.count++ == 0) {
+    ignored.used = t.displacement;
+    if (note_sink_) note_sink_(ignored_text(tag_id, ignored.used, src));
   }
-  return true;
+  return false;
+}
+
+std::string FuseEstimator::run_notes() const {
+  std::string s;
+  for (const auto& [key, ignored] : ignored_) {
+    s += s.empty() ? "" : "; ";
+    s += ignored_text(key.first, ignored.used, key.second, ignored.count);
+  }
+  return s;
 }
 
 void FuseEstimator::learn_offsets(Track& t, const Measurement& r) {
@@ -673,7 +712,6 @@ DropReasons FuseEstimator::drop_reasons() const {
   d.add(DropReason::kLate, s.dropped_late);
   d.add(DropReason::kTimeJump, guard_.dropped());
   d.add(DropReason::kTooManyTags, s.dropped_too_many_tags);
-  d.add(DropReason::kOtherSource, s.dropped_other_source);
   d.add(DropReason::kSuperseded, s.poses_superseded);
   d.add(DropReason::kInitialising, s.waiting_start);
   d.add(DropReason::kGated, s.ranges_rejected + s.tdoa_epochs_rejected + s.angles_rejected +
@@ -807,7 +845,7 @@ void FuseEstimator::on_dead_reckoning(const pose_t& m, DisplacementSource src, u
     ++stats_.dropped_invalid;
     return;
   }
-  if (!accept_displacement(*t, src)) return;
+  if (!accept_displacement(m.tag_id, *t, src)) return;
   const Eigen::Vector3d p(m.position[0], m.position[1], m.position[2]);
   if (!t->have_last_dr || m.utime <= t->last_dr_t) {
     if (t->have_last_dr) {
@@ -852,7 +890,7 @@ void FuseEstimator::on_step(const step_t& m) {
     ++stats_.dropped_invalid;
     return;
   }
-  if (!accept_displacement(*t, DisplacementSource::kStep)) return;
+  if (!accept_displacement(m.tag_id, *t, DisplacementSource::kStep)) return;
   // A step covers the time since the previous one (at most 2 s: a first step, or after a stop).
   const utime_t longest = s_to_utime(2.0);
   const utime_t t0 = t->have_last_dr && m.utime > t->last_dr_t && m.utime - t->last_dr_t < longest

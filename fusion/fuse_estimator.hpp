@@ -127,7 +127,10 @@ struct FuseStats {
   int64_t dropped_late = 0;          // more than max_delay_s behind the tag's newest
   int64_t dropped_no_site = 0;
   int64_t dropped_too_many_tags = 0;
-  int64_t dropped_other_source = 0;  // displacements of a second source for the same tag
+  // Displacements of a tag's other dead-reckoning sources (one is used per tag: the first heard,
+  // or estimators.fuse.displacement): left unused on purpose, so not a drop and not in
+  // drop_reasons(); said once per tag and source (set_note_sink) and in run_notes().
+  int64_t ignored_other_source = 0;
   int64_t waiting_start = 0;         // measurements of a tag whose track has not started yet
   int64_t rollbacks = 0;             // late messages fused in order
   int64_t initialisations = 0;
@@ -140,7 +143,11 @@ struct FuseStats {
 class FuseEstimator {
  public:
   using PoseSink = std::function<void(const pose_t&)>;
+  using NoteSink = std::function<void(const std::string&)>;
   explicit FuseEstimator(PoseSink sink, std::string source_name = "fuse");
+  // Information about the run that is no fault, once each: "T1: using INS_MODULE for
+  // displacements, ignoring STEP" when a tag's second dead-reckoning source is first heard.
+  void set_note_sink(NoteSink sink) { note_sink_ = std::move(sink); }
 
   void set_site(const Site& site);
   bool has_site() const { return site_.has_value(); }
@@ -168,6 +175,9 @@ class FuseEstimator {
   void on_pose(const pose_t& m, const std::string& kind);
 
   const FuseStats& stats() const { return stats_; }
+  // The run in words, for ips-replay's summary: each tag's unused dead-reckoning sources
+  // ("T1: using INS_MODULE for displacements, ignored 60 STEP"); "" when there were none.
+  std::string run_notes() const;
   // The last restart after a gap, in words ("T1: 9.6 s without input, ..."); "" before one.
   const std::string& last_gap() const { return last_gap_; }
   // Time plausibility of the inputs, per tag (core/time_guard.hpp).
@@ -289,7 +299,9 @@ class FuseEstimator {
   void count_absolute(Snapshot& s, utime_t t, bool accepted, bool live);
   void maybe_publish(const std::string& tag_id, Track& t);
   void on_dead_reckoning(const pose_t& m, DisplacementSource src, uint32_t bit);
-  bool accept_displacement(Track& t, DisplacementSource src);
+  // Whether the tag's displacements come from `src`; the others are counted in
+  // ignored_other_source and noted once per tag and source.
+  bool accept_displacement(const std::string& tag_id, Track& t, DisplacementSource src);
   // UWB_RX and BLE_AOA go through the hosted estimators, which need the site: counted when none.
   bool have_site_for_raw();
   void on_tdoa_epoch(const uwb_tdoa::TdoaEpoch& e);
@@ -298,6 +310,7 @@ class FuseEstimator {
   void on_hosted_fix(const pose_t& m);
 
   PoseSink sink_;
+  NoteSink note_sink_;
   std::string source_;
   std::optional<Site> site_;
   FuseParams params_;
@@ -314,6 +327,13 @@ class FuseEstimator {
   int64_t tdoa_reanchors_back_ = 0, aoa_reanchors_back_ = 0;  // the hosted guards', seen
   FuseStats stats_;
   std::string last_gap_;
+  // Per tag and ignored dead-reckoning source: the source used instead when it was first ignored
+  // (the note), and how many were ignored.
+  struct IgnoredSource {
+    DisplacementSource used = DisplacementSource::kNone;
+    int64_t count = 0;
+  };
+  std::map<std::pair<std::string, DisplacementSource>, IgnoredSource> ignored_;
 };
 
 }  // namespace ips::fusion

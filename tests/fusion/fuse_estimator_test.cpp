@@ -1,10 +1,12 @@
 // FuseEstimator on synthetic inputs: a tag walking a known path, exact or noisy ranges to known
 // anchors, a dead-reckoning source with a known heading error. Late messages, coasting without
-// anchors and re-acquisition, heights, loose poses, the start, bad input and parameters.
+// anchors and re-acquisition, heights, loose poses, the start, bad input and parameters, a second
+// dead-reckoning source left unused.
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <limits>
+#include <numbers>
 #include <random>
 #include <vector>
 
@@ -56,7 +58,8 @@ std::vector<Input> inputs(const Site& site, double duration_s, double heading_er
       const double ta = t + 0.1 * (a + 1);
       const Anchor& an = site.anchors[static_cast<size_t>(a)];
       out.push_back({kT0 + s_to_utime(ta), 0, an.id,
-                     (truth_at(ta) - an.position).norm() + range_noise * n(rng), {}});
+                     (truth_at(ta) - an.position).norm() + range_noise * n(rng),
+                     Eigen::Vector3d::Zero()});
     }
   }
   std::stable_sort(out.begin(), out.end(), [](const Input& a, const Input& b) { return a.t < b.t; });
@@ -337,7 +340,70 @@ TEST(FuseEstimator, BadInputIsCounted) {
   est.on_ins_module(ins);
   ins.utime += 1000;
   est.on_pose_ins(ins);
-  EXPECT_EQ(est.stats().dropped_other_source, 1);
+  EXPECT_EQ(est.stats().ignored_other_source, 1);
+}
+
+// HEALTH as the live process reports it (core/drop_reasons.hpp DropHealth): its error reports.
+struct HealthProbe {
+  struct {
+    int64_t drops = 0;
+  } counters_;
+  std::vector<std::string> errors;
+  auto& counters() { return counters_; }
+  void report_error(const std::string& text) { errors.push_back(text); }
+};
+
+TEST(FuseEstimator, ASecondDeadReckoningSourceIsOneNoteNotAFault) {
+  // The lab scenario's T1 sends both INS_MODULE positions (2 Hz) and ips-pdr's STEPs: the first
+  // heard moves the track, the other is left unused on purpose. HEALTH stays ok; the choice is
+  // said once per tag and source.
+  FuseEstimator est([](const pose_t&) {});
+  std::vector<std::string> notes;
+  est.set_note_sink([&](const std::string& text) { notes.push_back(text); });
+  est.set_site(site_with());
+  HealthProbe health;
+  DropHealth drop_health;
+  int steps = 0;
+  for (int k = 0; k < 40; ++k) {  // 20 s
+    const utime_t t = kT0 + s_to_utime(0.5 * k);
+    pose_t ins{};
+    ins.utime = t;
+    ins.tag_id = "T1";
+    ins.position[1] = 0.85 * 0.5 * k;
+    est.on_ins_module(ins);
+    if (k % 3 != 0) {  // steps at 1.33 Hz, between the positions
+      step_t st{};
+      st.utime = t + s_to_utime(0.2);
+      st.tag_id = "T1";
+      st.index = ++steps;
+      st.length_m = 0.64;
+      st.heading_known = true;
+      st.heading_rad = std::numbers::pi / 2;
+      st.cadence_hz = 1.33;
+      est.on_step(st);
+    }
+    if (k % 2 == 1) drop_health.report(health, est.drop_reasons());  // once a second
+  }
+  EXPECT_EQ(notes, std::vector<std::string>{"T1: using INS_MODULE for displacements, ignoring STEP"});
+  EXPECT_EQ(est.stats().displacements_used, 39);
+  EXPECT_EQ(est.stats().ignored_other_source, steps);
+  EXPECT_EQ(est.drop_reasons().total(), 0);
+  EXPECT_TRUE(health.errors.empty()) << health.errors.front();
+  EXPECT_EQ(health.counters_.drops, 0);
+  EXPECT_EQ(est.run_notes(), "T1: using INS_MODULE for displacements, ignored 26 STEP");
+  // A third source is said once more, for itself.
+  pose_t pose_ins{};
+  pose_ins.tag_id = "T1";
+  for (int k = 0; k < 3; ++k) {
+    pose_ins.utime = kT0 + s_to_utime(20.1 + k);
+    est.on_pose_ins(pose_ins);
+  }
+  ASSERT_EQ(notes.size(), 2u);
+  EXPECT_EQ(notes[1], "T1: using INS_MODULE for displacements, ignoring POSE_INS");
+  EXPECT_EQ(est.run_notes(),
+            "T1: using INS_MODULE for displacements, ignored 3 POSE_INS; "
+            "T1: using INS_MODULE for displacements, ignored 26 STEP");
+  EXPECT_EQ(est.drop_reasons().total(), 0);
 }
 
 TEST(FuseParams, BadValuesNameTheField) {
