@@ -8,6 +8,7 @@
 #include "core/lcm_url.hpp"
 #include "core/yaml_fields.hpp"
 #include "core/logging.hpp"
+#include "core/version.hpp"
 
 namespace ips {
 
@@ -48,6 +49,10 @@ void add_common_options(CLI::App& app, CommonOptions& opts, CommonFlags flags) {
   }
   app.add_option("--log-level", opts.log_level, "trace, debug, info, warn, error or off")
       ->capture_default_str();
+  // The name is read when the flag is given: the program may name the app after this call.
+  app.set_version_flag(
+      "--version", [&app] { return version_line(app.get_name()); },
+      "print the program, its version, the git commit and build type it was built from, and exit");
 }
 
 void print_fatal(const std::string& program, const std::string& what) {
@@ -77,6 +82,10 @@ bool parse_command_line(CLI::App& app, const CommonOptions& opts, int argc, char
     return false;
   } catch (const CLI::CallForAllHelp&) {
     std::cout << app.help("", CLI::AppFormatMode::All);
+    exit_code = 0;
+    return false;
+  } catch (const CLI::CallForVersion& e) {
+    std::cout << e.what() << "\n";
     exit_code = 0;
     return false;
   } catch (const CLI::ParseError& e) {

@@ -15,7 +15,7 @@
 #include "core/node.hpp"
 #include "core/site.hpp"
 #include "core/text_escape.hpp"
-#include "ips/version.hpp"
+#include "core/version.hpp"
 #include "loggers/record/recorder.hpp"
 
 namespace {
@@ -104,7 +104,7 @@ int main(int argc, char** argv) {
     ro.queue_bytes = static_cast<size_t>(queue_mb * 1048576.0);
     ro.flush_interval_s = flush_ms * 1e-3;
     ro.site_wait_s = site_wait_s;
-    ro.info.version = std::string(IPS_VERSION) + " (" + IPS_GIT_DESCRIBE + ")";
+    ro.info.version = ips::version_text();
     ro.info.host = host_name();
     ro.info.lcm_url = ips::effective_lcm_url(opts.lcm_url);
     ro.info.channels_regex = channels_regex;

@@ -28,6 +28,8 @@
 #include <string>
 #include <vector>
 
+#include "core/version.hpp"
+
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
@@ -122,6 +124,8 @@ int main(int argc, char** argv) {
   app.add_option("--lcm-url", o.lcm_url, "LCM URL (default: LCM_DEFAULT_URL or LCM's)");
   app.add_option("--cpu-pid", o.cpu_pid, "report the CPU time of this process (ips-fuse)");
   app.add_flag("--print-site", o.print_site, "print the site for ips-fuse --site and exit");
+  app.set_version_flag("--version", ips::version_line("ips-fuse-latency"),
+                       "print the program's version and build, and exit");
   CLI11_PARSE(app, argc, argv);
   if (o.print_site) {
     std::fputs(site_yaml(o).c_str(), stdout);

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include "core/channels.hpp"
+#include "core/version.hpp"
 
 namespace ips {
 namespace {
@@ -78,8 +79,30 @@ TEST(Cli, HelpExitsZeroAndListsCommonFlags) {
   EXPECT_EQ(parse({"--help"}, opts, go_on), 0);
   std::string out = testing::internal::GetCapturedStdout();
   EXPECT_FALSE(go_on);
-  for (const char* flag : {"--lcm-url", "--site", "--channel", "--log-level"})
+  for (const char* flag : {"--lcm-url", "--site", "--channel", "--log-level", "--version"})
     EXPECT_NE(out.find(flag), std::string::npos) << flag;
+}
+
+// --version answers before a program's own requirements (a required option, a subcommand) are
+// checked, as --help does.
+TEST(Cli, VersionPrintsOneLineAndExitsZero) {
+  CLI::App app{"test", "prog"};
+  CommonOptions opts;
+  add_common_options(app, opts);
+  std::string file;
+  app.add_option("--file", file)->required();
+  app.add_subcommand("sub", "a subcommand");
+  app.require_subcommand(1);
+  std::vector<std::string> args = {"prog", "--version"};
+  std::vector<char*> argv;
+  for (auto& a : args) argv.push_back(a.data());
+  int rc = -1;
+  testing::internal::CaptureStdout();
+  testing::internal::CaptureStderr();
+  EXPECT_FALSE(parse_command_line(app, opts, 2, argv.data(), rc));
+  EXPECT_EQ(testing::internal::GetCapturedStderr(), "");
+  EXPECT_EQ(testing::internal::GetCapturedStdout(), "prog " + version_text() + "\n");
+  EXPECT_EQ(rc, 0);
 }
 
 }  // namespace
