@@ -271,7 +271,7 @@ class FuseEstimator {
 
   // The tag's track for a message of time `t`, or nullptr when the message is not to be used now
   // (counted; or held by the time guard, which hands it over again through `again` when its
-  // stamp is confirmed). A restart after a gap happens here.
+  // stamp is confirmed). A restart after a gap happens here. Defined in fuse_inputs.hpp.
   template <class Again>
   Track* track_for(const std::string& tag_id, utime_t t, Again&& again);
   // For the hosted estimators' epochs, whose stamps their own guards checked: never held; a stale
@@ -293,7 +293,17 @@ class FuseEstimator {
   void try_start_from_ranges(const std::string& tag_id, Track& t);
   // Moves the snapshot's filter to time `to`, through the displacements of the history.
   void predict(const Track& t, Snapshot& s, utime_t to) const;
+  // Moves the snapshot to the measurement's time and fuses it (fuse_history.cpp) with its model,
+  // one file each: `live` the first time (counted, consistency checked), not when fused again
+  // after a late message.
   void apply(Track& t, Snapshot& s, const Measurement& m, bool live);
+  void apply_range(Track& t, Snapshot& s, const Measurement& m, bool live);     // fuse_ranges.cpp
+  void apply_tdoa(Track& t, Snapshot& s, const Measurement& m, bool live);      // fuse_tdoa.cpp
+  void apply_angles(Track& t, Snapshot& s, const Measurement& m, bool live);    // fuse_angles.cpp
+  void apply_height(Track& t, Snapshot& s, const Measurement& m, bool live);    // fuse_heights.cpp
+  void apply_position(Track& t, Snapshot& s, const Measurement& m, bool live);  // fuse_poses.cpp
+  // A displacement moved the state in predict() (fuse_displacements.cpp): counted here.
+  void apply_displacement(Track& t, const Measurement& m, bool live);
   // An absolute measurement accepted or gated: after reinit_after_rejections gated in a row
   // the track is widened.
   void count_absolute(Snapshot& s, utime_t t, bool accepted, bool live);

@@ -1,0 +1,199 @@
+// Dead-reckoning displacements as the motion model (001's INS): a foot-INS module's positions
+// (INS_MODULE), ips-ins's (POSE_INS) or ips-pdr's steps (STEP), one source per tag, rotated by the
+// estimated heading bias; between them constant velocity, turned by the tag's gyro
+// (fuse_gyro.cpp).
+#include "fusion/fuse_estimator.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <optional>
+#include <string>
+
+#include "core/geometry.hpp"
+#include "core/text_escape.hpp"
+#include "fusion/fuse_inputs.hpp"
+
+namespace ips::fusion {
+
+namespace {
+const char* displacement_channel(DisplacementSource s) {
+  switch (s) {
+    case DisplacementSource::kInsModule: return "INS_MODULE";
+    case DisplacementSource::kPoseIns: return "POSE_INS";
+    case DisplacementSource::kStep: return "STEP";
+    case DisplacementSource::kAuto:
+    case DisplacementSource::kNone: break;
+  }
+  return "none";
+}
+
+// "T1: using INS_MODULE for displacements, ignoring STEP" (count 0: the note when it starts), or
+// with the count, "..., ignored 60 STEP"; a configured `none` uses no source.
+std::string ignored_text(const std::string& tag_id, DisplacementSource used,
+                         DisplacementSource ignored, int64_t count = 0) {
+  std::string s = printable(tag_id) + ": ";
+  s += used == DisplacementSource::kNone
+           ? std::string("no displacements (estimators.fuse.displacement: none)")
+           : std::string("using ") + displacement_channel(used) + " for displacements";
+  s += count == 0 ? std::string(", ignoring ")
+                  : ", ignored " + std::to_string(count) + " ";
+  return s + displacement_channel(ignored);
+}
+}  // namespace
+
+bool FuseEstimator::accept_displacement(const std::string& tag_id, Track& t,
+                                        DisplacementSource src) {
+  if (params_.displacement == DisplacementSource::kAuto) {
+    if (t.displacement == DisplacementSource::kNone) t.displacement = src;
+  } else {
+    t.displacement = params_.displacement;
+  }
+  if (t.displacement == src) return true;
+  // One source moves a tag (a second would count the same walk twice): the others are left
+  // unused on purpose, which is no fault of the input. Said once per tag and source.
+  ++stats_.ignored_other_source;
+  IgnoredSource& ignored = ignored_[{tag_id, src}];
+  if (ignored.count++ == 0) {
+    ignored.used = t.displacement;
+    if (note_sink_) note_sink_(ignored_text(tag_id, ignored.used, src));
+  }
+  return false;
+}
+
+std::string FuseEstimator::run_notes() const {
+  std::string s;
+  for (const auto& [key, ignored] : ignored_) {
+    s += s.empty() ? "" : "; ";
+    s += ignored_text(key.first, ignored.used, key.second, ignored.count);
+  }
+  return s;
+}
+
+void FuseEstimator::on_dead_reckoning(const pose_t& m, DisplacementSource src, uint32_t bit) {
+  Track* t = track_for(m.tag_id, m.utime, [this, m, src, bit] { on_dead_reckoning(m, src, bit); });
+  if (!t) return;
+  if (!finite_position(m)) {
+    ++stats_.dropped_invalid;
+    return;
+  }
+  if (!accept_displacement(m.tag_id, *t, src)) return;
+  const Eigen::Vector3d p(m.position[0], m.position[1], m.position[2]);
+  if (!t->have_last_dr || m.utime <= t->last_dr_t) {
+    if (t->have_last_dr) {
+      ++stats_.dropped_invalid;  // not after the previous one
+      return;
+    }
+    t->have_last_dr = true;
+    t->last_dr_t = m.utime;
+    t->last_dr_position = p;
+    // Its first position starts the track when nothing else has (001: the module starts where
+    // the walk does); after a gap, only a track that never had a fix of the site's frame.
+    if (!t->initialised && (!t->ever_started || !t->absolute_seen))
+      start(m.tag_id, *t, m.utime, p, params_.start_sigma_m);
+    return;
+  }
+  Measurement d;
+  d.kind = Measurement::Kind::kDisplacement;
+  d.t0 = t->last_dr_t;
+  d.t = m.utime;
+  d.vec = p - t->last_dr_position;
+  d.source = bit;
+  t->dr_bit = bit;
+  t->last_dr_t = m.utime;
+  t->last_dr_position = p;
+  if (t->initialised) add(m.tag_id, *t, d);
+  else if (!t->ever_started || !t->absolute_seen) start(m.tag_id, *t, m.utime, p, params_.start_sigma_m);
+}
+
+void FuseEstimator::on_ins_module(const pose_t& m) {
+  on_dead_reckoning(m, DisplacementSource::kInsModule, kSrcInsModule);
+}
+
+void FuseEstimator::on_pose_ins(const pose_t& m) {
+  on_dead_reckoning(m, DisplacementSource::kPoseIns, kSrcPoseIns);
+}
+
+void FuseEstimator::on_step(const step_t& m) {
+  Track* t = track_for(m.tag_id, m.utime, [this, m] { on_step(m); });
+  if (!t) return;
+  if (!std::isfinite(m.length_m) || m.length_m < 0 || m.length_m > 5 ||
+      !m.heading_known || !std::isfinite(m.heading_rad)) {
+    ++stats_.dropped_invalid;
+    return;
+  }
+  if (!accept_displacement(m.tag_id, *t, DisplacementSource::kStep)) return;
+  // A step covers the time since the previous one (at most 2 s: a first step, or after a stop).
+  const utime_t longest = s_to_utime(2.0);
+  const utime_t t0 = t->have_last_dr && m.utime > t->last_dr_t && m.utime - t->last_dr_t < longest
+                         ? t->last_dr_t
+                         : m.utime - (std::isfinite(m.cadence_hz) && m.cadence_hz > 0.3
+                                          ? s_to_utime(1.0 / m.cadence_hz)
+                                          : s_to_utime(0.5));
+  if (t->have_last_dr && m.utime <= t->last_dr_t) {
+    ++stats_.dropped_invalid;
+    return;
+  }
+  t->have_last_dr = true;
+  t->last_dr_t = m.utime;
+  if (!t->initialised) {  // a step says nothing of where the tag is
+    ++stats_.waiting_start;
+    return;
+  }
+  Measurement d;
+  d.kind = Measurement::Kind::kDisplacement;
+  d.t0 = t0;
+  d.t = m.utime;
+  d.vec = Eigen::Vector3d(m.length_m * std::cos(m.heading_rad),
+                          m.length_m * std::sin(m.heading_rad), 0.0);
+  d.source = kSrcStep;
+  t->dr_bit = kSrcStep;
+  add(m.tag_id, *t, d);
+}
+
+void FuseEstimator::predict(const Track& t, Snapshot& s, utime_t to) const {
+  const double psi_walk = std::pow(deg_to_rad(params_.heading_bias_walk_deg_per_sqrt_s), 2);
+  utime_t cursor = s.t;
+  if (to <= cursor) return;
+  // Constant velocity from a to b, turned by the gyro's turn meanwhile when there is one.
+  // A displacement's velocity is its average, the direction it had in its middle: the turn is
+  // counted from there.
+  auto cv = [&](utime_t a, utime_t b) {
+    const utime_t from = std::min(s.velocity_t, a);
+    std::optional<double> mid, end;
+    if (params_.gyro_turns) {
+      mid = t.gyro.turn(from, a + (b - a) / 2);
+      end = t.gyro.turn(from, b);
+    }
+    s.filter.predict_cv(utime_to_s(b - a), params_.accel_psd, psi_walk,
+                        mid && end ? *mid : 0.0, mid && end ? *end : 0.0);
+    s.velocity_t = b;
+  };
+  for (const Measurement& d : t.history) {
+    if (d.kind != Measurement::Kind::kDisplacement || d.t <= cursor || d.t0 >= to) continue;
+    const utime_t a = std::max(d.t0, cursor), b = std::min(d.t, to);
+    if (b <= a) continue;
+    if (a > cursor) cv(cursor, a);
+    const double fraction = static_cast<double>(b - a) / static_cast<double>(d.t - d.t0);
+    const Eigen::Vector3d part = fraction * d.vec;
+    // The whole displacement's variance, shared out in proportion to time, so that splitting it
+    // between other messages adds up to the same.
+    const double sigma = std::sqrt(fraction) *
+                         std::max(params_.displacement_sigma_min_m,
+                                  params_.displacement_sigma_per_m * d.vec.norm());
+    s.filter.predict_displacement(part, utime_to_s(b - a), sigma, psi_walk);
+    s.velocity_t = d.t0 + (d.t - d.t0) / 2;
+    cursor = b;
+  }
+  if (cursor < to) cv(cursor, to);
+  s.t = to;
+}
+
+void FuseEstimator::apply_displacement(Track& t, const Measurement& m, bool live) {
+  // Its motion went into predict(); counted here.
+  if (live) {
+    ++stats_.displacements_used;
+    t.sources |= m.source;
+  }
+}
+
+}  // namespace ips::fusion

@@ -1,0 +1,22 @@
+// The tag's gyro (IMU): its turn about the vertical (gyro_heading.hpp) turns the constant-velocity
+// motion between displacements (predict(), fuse_displacements.cpp).
+#include "fusion/fuse_estimator.hpp"
+
+#include "fusion/fuse_inputs.hpp"
+
+namespace ips::fusion {
+
+void FuseEstimator::on_imu(const imu_t& m) {
+  if (!params_.gyro_turns) return;
+  Track* t = track_for(m.device_id, m.utime, [this, m] { on_imu(m); });
+  if (!t) return;
+  const Eigen::Vector3d gyro(m.gyro[0], m.gyro[1], m.gyro[2]);
+  const Eigen::Vector3d accel(m.accel[0], m.accel[1], m.accel[2]);
+  if (!t->gyro.add(m.utime, gyro, accel)) {
+    ++stats_.dropped_invalid;
+    return;
+  }
+  ++stats_.imu_used;
+}
+
+}  // namespace ips::fusion

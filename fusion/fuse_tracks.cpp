@@ -1,0 +1,186 @@
+// FuseEstimator's tracks: one per tag, found or added for each input (and restarted after a
+// gap or a jump back in time), started from the site's start pose, a multilateration of ranges or
+// the hosted TDoA / AoA trackers' fix, and widened when the tag is lost.
+#include "fusion/fuse_estimator.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+
+#include "core/geometry.hpp"
+#include "core/multilateration.hpp"
+#include "core/text_escape.hpp"
+#include "estimators/uwb_twr/models/uwb_range.hpp"
+#include "fusion/fuse_inputs.hpp"
+
+namespace ips::fusion {
+
+namespace {
+constexpr double kPlanarVar = 1e-12;  // z and vz in 2D: known
+}  // namespace
+
+FuseEstimator::Track* FuseEstimator::track_for_checked(const std::string& tag_id, utime_t t,
+                                                       int64_t hosted_reanchors_back,
+                                                       int64_t& seen_reanchors_back) {
+  // The hosted estimator's guard went back in time since its last epoch: so does the tag.
+  const bool went_back = hosted_reanchors_back != seen_reanchors_back;
+  seen_reanchors_back = hosted_reanchors_back;
+  if (!guard_.note(tag_id, t, went_back)) {
+    ++stats_.messages_in;
+    ++stats_.dropped_late;  // old work handed over late (a blink closed after a silence)
+    return nullptr;
+  }
+  if (went_back) restart_track(tag_id);
+  guard_.release();  // the tag's messages held meanwhile that this stamp confirmed
+  return find_or_add_track(tag_id, t);
+}
+
+void FuseEstimator::restart_track(const std::string& tag_id) {
+  // Time went back: nothing the track holds is of the new timeline. Its tally stays, so that the
+  // next pose is flagged REINITIALISED.
+  auto it = tracks_.find(tag_id);
+  if (it == tracks_.end()) return;
+  Track fresh;
+  fresh.tally = it->second.tally;
+  fresh.ever_started = it->second.ever_started;
+  fresh.absolute_seen = it->second.absolute_seen;
+  it->second = std::move(fresh);
+}
+
+FuseEstimator::Track* FuseEstimator::find_or_add_track(const std::string& tag_id, utime_t t) {
+  ++stats_.messages_in;
+  auto it = tracks_.find(tag_id);
+  if (it == tracks_.end()) {
+    if (static_cast<int>(tracks_.size()) >= params_.max_tags) {
+      ++stats_.dropped_too_many_tags;
+      return nullptr;
+    }
+    it = tracks_.try_emplace(tag_id).first;
+  }
+  Track& track = it->second;
+  if (track.initialised && t - track.newest > s_to_utime(params_.max_gap_s)) {
+    // Nothing of the tag for longer than any coasting can bridge (the process stopped, the
+    // machine swapped, the tag out of reach): extrapolating across would publish a confident
+    // guess. The track starts afresh from the next fix, its first pose flagged REINITIALISED.
+    track.initialised = false;
+    track.history.clear();
+    track.snapshots.clear();
+    track.init_ranges.clear();
+    track.waiting_since = 0;
+    track.have_last_dr = false;
+    ++stats_.gap_restarts;
+    char text[160];
+    std::snprintf(text, sizeof text, "%.1f s without input, track restarted from fresh measurements",
+                  utime_to_s(t - track.newest));
+    last_gap_ = printable(tag_id) + ": " + text;
+  }
+  // A start pose in the site wins over everything else, for the first start.
+  const Tag* tag = site_->find_tag(tag_id);
+  if (!track.initialised && !track.ever_started && tag && tag->has_start()) {
+    Eigen::Vector3d p = tag->start_position;
+    if (!std::isfinite(p.z())) p.z() = std::isfinite(tag->height_m) ? tag->height_m : 0.0;
+    start(tag_id, track, t, p, params_.start_sigma_m);
+  }
+  return &track;
+}
+
+void FuseEstimator::start(const std::string& tag_id, Track& t, utime_t time,
+                          const Eigen::Vector3d& p, double sigma_m) {
+  FuseFilter f;
+  f.planar = planar_for(tag_id);
+  f.x.head<3>() = p;
+  f.P.setZero();
+  const double bias_sigma = deg_to_rad(params_.heading_bias_sigma_deg);
+  for (int i = 0; i < 3; ++i) {
+    f.P(i, i) = sigma_m * sigma_m;
+    f.P(kVel + i, kVel + i) = 1.0;
+  }
+  f.P(kPsi, kPsi) = std::max(bias_sigma * bias_sigma, 1e-12);
+  if (f.planar) {
+    f.x(2) = tag_height(tag_id);
+    f.P(2, 2) = kPlanarVar;
+    f.P(kVel + 2, kVel + 2) = kPlanarVar;
+  }
+  if (t.initialised) ++stats_.restarts;
+  t.initialised = true;
+  t.ever_started = true;
+  t.state = Snapshot{time, time, f, time, 0};
+  t.base = t.state;
+  t.history.clear();
+  t.snapshots.clear();
+  t.init_ranges.clear();
+  t.waiting_since = 0;
+  t.newest = std::max(t.newest, time);
+  t.tally.restart(0, 0);
+  ++stats_.initialisations;
+}
+
+void FuseEstimator::try_start_from_ranges(const std::string& tag_id, Track& t) {
+  const utime_t newest = t.init_ranges.back().t;
+  while (!t.init_ranges.empty() &&
+         t.init_ranges.front().t < newest - s_to_utime(params_.epoch_window_s))
+    t.init_ranges.pop_front();
+  // The newest range of each anchor.
+  std::map<int, double> latest;
+  for (const auto& m : t.init_ranges) latest[m.anchor] = m.value;
+  const bool planar = planar_for(tag_id);
+  const int needed = planar ? 3 : 4;
+  // As ips-uwb-twr: for the first second of waiting (and two epochs) one range more than a fix
+  // needs, where the site has it, so that one NLOS range shows in the residual and is left out;
+  // from the bare minimum nothing tells a 1.3 m long range, and the start would be that far off
+  // with the geometry's small sigma.
+  if (t.waiting_since == 0) t.waiting_since = t.init_ranges.front().t;
+  int required = needed, enabled_uwb_anchors = 0;
+  for (const auto& a : site_->anchors) enabled_uwb_anchors += a.enabled && a.kind == "uwb";
+  if (newest - t.waiting_since <
+      std::max<utime_t>(1'000'000, 2 * s_to_utime(params_.epoch_window_s)))
+    required = std::min(needed + 1, enabled_uwb_anchors);
+  if (static_cast<int>(latest.size()) < std::max(needed, required)) return;
+  std::vector<RangeObservation> obs;
+  for (const auto& [a, r] : latest) obs.push_back({site_->anchors[static_cast<size_t>(a)].position, r});
+  MultilaterationOptions o;
+  o.fixed_height = planar;
+  o.height_m = planar ? tag_height(tag_id) : std::numeric_limits<double>::quiet_NaN();
+  const double max_residual = 3.0 * params_.range_sigma_m + 0.2;
+  const MultilaterationResult fix =
+      multilaterate_dropping_one(obs, o, MultilaterationSolver::kLevenbergMarquardt, max_residual);
+  if (!fix.ok) return;
+  // The residual left (a consistent set still has some) widens the start as the noise does; a
+  // start no spare range could check may hold an NLOS range of a metre or more.
+  double sigma = std::max(params_.range_sigma_m,
+                          std::sqrt(std::max(0.0, fix.covariance_unit.trace())) *
+                              std::max(params_.range_sigma_m, fix.residual_rms_m));
+  if (static_cast<int>(obs.size()) <= needed)
+    sigma = std::max(sigma, uwb_twr::kUncheckedStartSigmaM);
+  start(tag_id, t, newest, fix.position, sigma);
+}
+
+void FuseEstimator::count_absolute(Snapshot& s, utime_t t, bool accepted, bool live) {
+  if (accepted) {
+    s.last_absolute = t;
+    s.rejections = 0;
+  } else if (++s.rejections >= params_.reinit_after_rejections) {
+    // Gated again and again: the track has lost the tag. Widen it so that the ranges are taken
+    // again (a re-acquisition, not a jump past the gate of one range).
+    FuseFilter& f = s.filter;
+    for (int i = 0; i < (f.planar ? 2 : 3); ++i) f.P(i, i) += 1.0;
+    s.rejections = 0;
+    if (live) ++stats_.restarts;
+  }
+}
+
+void FuseEstimator::on_hosted_fix(const pose_t& m) {
+  // The epoch went through on_tdoa_epoch / on_aoa_epoch first, so the track exists unless the tag
+  // was refused (too many tags).
+  const auto it = tracks_.find(m.tag_id);
+  if (it == tracks_.end() || it->second.initialised) return;
+  const bool horizontal_only = (m.status & pose_t::STATUS_2D) != 0;
+  const auto cov = pose_covariance(m, horizontal_only);
+  if (!finite_position(m) || !cov) return;
+  const Eigen::Vector3d p(m.position[0], m.position[1], m.position[2]);
+  start(m.tag_id, it->second, m.utime, p, std::sqrt(std::max(cov->trace() / 3.0, 1e-6)));
+  ++stats_.hosted_starts;
+}
+
+}  // namespace ips::fusion
