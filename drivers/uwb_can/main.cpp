@@ -6,11 +6,9 @@
 
 #include <algorithm>
 #include <cerrno>
-#include <chrono>
 #include <csignal>
 #include <cstdio>
 #include <cstring>
-#include <deque>
 #include <memory>
 #include <optional>
 
@@ -20,10 +18,10 @@
 #include "core/log_input.hpp"
 #include "core/log_to_lines.hpp"
 #include "core/node.hpp"
+#include "core/paced_input.hpp"
 #include "core/text_escape.hpp"
 #include "drivers/uwb_can/can_range_receiver.hpp"
 #include "drivers/uwb_can/candump_parser.hpp"
-#include "drivers/uwb_can/replay_pacer.hpp"
 #include "drivers/uwb_can/socketcan_port.hpp"
 
 namespace {
@@ -72,13 +70,18 @@ void log_summary(const std::string& what, const CanRangeStats& st) {
 }
 
 // --candump-file and --candump-stdin: candump text from `fd` until its end, paced by the line
-// timestamps (ReplayPacer). While a line waits for its time, the input is not read: a writer into
-// the pipe (cat, candump) waits too.
+// timestamps (core/paced_input.hpp). While a line waits for its time, the input is not read: a
+// writer into the pipe (cat, candump) waits too.
 int read_candump(ips::Node& node, const Settings& s, int fd, const std::string& name) {
   CanRangeReceiver rx = make_receiver(node, s);
+  ips::PacedInput<CandumpLine> input(
+      node, s.speed, 1,
+      [](const CandumpLine& line) -> std::optional<ips::utime_t> {
+        if (line.kind == CandumpLineKind::kFrame && line.has_time) return line.utime;
+        return std::nullopt;
+      },
+      [&](const CandumpLine& line) { rx.on_candump_line(line, s.time_from, ips::wall_utime_now()); });
   ips::LineBuffer lines(kMaxCandumpLineBytes);
-  ReplayPacer pacer(s.speed);
-  std::deque<CandumpLine> pending;
   int64_t n_lines = 0, overlong_seen = 0;
   std::string first_bad;
   auto take_line = [&](std::string_view text) {
@@ -87,54 +90,22 @@ int read_candump(ips::Node& node, const Settings& s, int fd, const std::string& 
     if (line.kind == CandumpLineKind::kBad && first_bad.empty())
       first_bad = "line " + std::to_string(n_lines) + ": " + line.reason;
     if (line.kind == CandumpLineKind::kFrame) ++node.counters().msgs_in;
-    pending.push_back(std::move(line));
+    input.push(std::move(line));
   };
-  std::vector<char> buf(1 << 16);
-  bool eof = false, readable = false;
-  int status = 0;
-  node.publish_health();
-  while (!node.stopping()) {
-    int wait_ms = 1000;
-    while (!pending.empty()) {
-      const CandumpLine& line = pending.front();
-      if (line.kind == CandumpLineKind::kFrame && line.has_time) {
-        const int64_t w = pacer.wait_ms(line.utime, std::chrono::steady_clock::now());
-        if (w > 0) {
-          wait_ms = static_cast<int>(std::min<int64_t>(w, 1000));
-          break;
+  const int status = input.run(
+      fd, kProgram, name,
+      [&](std::string_view bytes) {
+        lines.feed(bytes, take_line);
+        for (; overlong_seen < lines.overlong_lines(); ++overlong_seen) {
+          ++node.counters().parse_errors;
+          node.report_error("candump line longer than " + std::to_string(kMaxCandumpLineBytes) +
+                            " bytes skipped");
         }
-      }
-      rx.on_candump_line(line, s.time_from, ips::wall_utime_now());
-      pending.pop_front();
-    }
-    if (pending.empty() && eof) break;
-    readable = false;
-    if (pending.empty())
-      node.watch_fd(fd, POLLIN, [&readable](short) { readable = true; });
-    else
-      node.unwatch_fd(fd);
-    if (!node.spin_once(wait_ms)) break;
-    if (!readable) continue;
-    const ssize_t n = read(fd, buf.data(), buf.size());
-    if (n > 0) {
-      lines.feed(std::string_view(buf.data(), static_cast<size_t>(n)), take_line);
-      for (; overlong_seen < lines.overlong_lines(); ++overlong_seen) {
-        ++node.counters().parse_errors;
-        node.report_error("candump line longer than " + std::to_string(kMaxCandumpLineBytes) +
-                          " bytes skipped");
-      }
-    } else if (n == 0) {
-      eof = true;
-      node.unwatch_fd(fd);
-      if (const std::string rest = lines.take_partial(); !rest.empty()) take_line(rest);
-    } else if (errno != EAGAIN && errno != EINTR) {
-      ips::print_fatal(kProgram, "reading " + name + ": " + std::strerror(errno));
-      status = 1;
-      break;
-    }
-  }
-  node.unwatch_fd(fd);
-  node.publish_health();
+      },
+      [&] {
+        if (const std::string rest = lines.take_partial(); !rest.empty()) take_line(rest);
+      });
+  const bool eof = input.eof();
   log_summary(name, rx.stats());
   if (rx.stats().bad_input > 0)
     spdlog::warn("{}: {}: {} bad lines or frames skipped (first: {})", kProgram, name,

@@ -7,11 +7,9 @@
 
 #include <algorithm>
 #include <cerrno>
-#include <chrono>
 #include <csignal>
 #include <cstdio>
 #include <cstring>
-#include <deque>
 #include <memory>
 #include <set>
 
@@ -20,6 +18,7 @@
 #include "core/log_input.hpp"
 #include "core/log_to_lines.hpp"
 #include "core/node.hpp"
+#include "core/paced_input.hpp"
 #include "core/udp_socket.hpp"
 #include "core/text_escape.hpp"
 #include "drivers/uwb_tdoa_anchors/anchor_report_parser.hpp"
@@ -148,65 +147,32 @@ int read_udp(ips::Node& node, const WireIds& ids, PowerModel power, const std::s
   return rc;
 }
 
-// --file: a file of records (or stdin) to its end, handed on at `rate` records/s (0: as read).
-// While records wait for their turn the input is not read, so a writer into a pipe waits too.
+// --file: a file of records (or stdin) to its end, handed on at `rate` records/s (0: as read):
+// record k stamped k s, paced at speed `rate` (core/paced_input.hpp). While records wait for their
+// turn the input is read at most 1024 records ahead, so a writer into a pipe waits too.
 int read_file(ips::Node& node, const WireIds& ids, PowerModel power, int fd,
               const std::string& path, double rate) {
-  using Clock = std::chrono::steady_clock;
   const std::string name = path == "-" ? "stdin" : "'" + ips::printable(path) + "'";
   RecordPublisher pub(node, ids, power,
                       std::string(kProgram) + ":" + (path == "-" ? "stdin" : path));
   RecordSplitter splitter;
-  std::deque<std::string> pending;
-  auto take = [&](std::string_view r) { pending.emplace_back(r); };
-  const auto period = std::chrono::duration_cast<Clock::duration>(
-      std::chrono::duration<double>(rate > 0 ? 1.0 / rate : 0.0));
-  Clock::time_point next_due = Clock::now();
-  std::vector<char> buf(1 << 16);
-  bool eof = false, readable = false;
-  int status = 0;
-  node.publish_health();
-  while (!node.stopping()) {
-    int wait_ms = 1000;
-    while (!pending.empty()) {
-      const auto now = Clock::now();
-      if (rate > 0) {
-        if (now < next_due) {
-          wait_ms = static_cast<int>(std::clamp<int64_t>(
-              std::chrono::ceil<std::chrono::milliseconds>(next_due - now).count(), 1, 1000));
-          break;
-        }
-        // Fallen behind (a stall): go on from now rather than catch up in a burst.
-        next_due =
-            now - next_due > std::chrono::milliseconds(100) ? now + period : next_due + period;
-      }
-      pub.on_record(pending.front(), ips::wall_utime_now());
-      pending.pop_front();
-    }
-    if (pending.empty() && eof) break;
-    readable = false;
-    if (!eof && pending.size() < 1024)
-      node.watch_fd(fd, POLLIN, [&readable](short) { readable = true; });
-    else
-      node.unwatch_fd(fd);
-    if (!node.spin_once(wait_ms)) break;
-    if (!readable) continue;
-    const ssize_t n = read(fd, buf.data(), buf.size());
-    if (n > 0) {
-      splitter.feed(std::string_view(buf.data(), static_cast<size_t>(n)), take);
-      pub.check_overlong(splitter);
-    } else if (n == 0) {
-      eof = true;
-      node.unwatch_fd(fd);
-      splitter.finish(take);
-    } else if (errno != EAGAIN && errno != EINTR) {
-      ips::print_fatal(kProgram, "reading " + name + ": " + std::strerror(errno));
-      status = 1;
-      break;
-    }
-  }
-  node.unwatch_fd(fd);
-  node.publish_health();
+  int64_t handed_on = 0;
+  ips::PacedInput<std::string> input(
+      node, rate, 1024,
+      [&](const std::string&) -> std::optional<ips::utime_t> { return handed_on * 1'000'000; },
+      [&](const std::string& record) {
+        ++handed_on;
+        pub.on_record(record, ips::wall_utime_now());
+      });
+  auto take = [&](std::string_view r) { input.push(std::string(r)); };
+  const int status = input.run(
+      fd, kProgram, name,
+      [&](std::string_view bytes) {
+        splitter.feed(bytes, take);
+        pub.check_overlong(splitter);
+      },
+      [&] { splitter.finish(take); });
+  const bool eof = input.eof();
   pub.log_summary(name);
   if (status == 0 && eof && pub.records() > 0 && pub.published() == 0) {
     ips::print_fatal(kProgram, name + " holds no anchor report record (first: " +

@@ -1,5 +1,5 @@
 // From frames to uwb_range_t and back (drivers/uwb_can/range_naming.hpp,
-// can_range_receiver.hpp, replay_pacer.hpp): ids and numbers, units, what is counted for bad
+// can_range_receiver.hpp; core/replay_pacer.hpp): ids and numbers, units, what is counted for bad
 // input, error frames and other devices, and the pacing of replayed frames.
 #include "drivers/uwb_can/can_range_receiver.hpp"
 
@@ -8,8 +8,8 @@
 #include <cmath>
 #include <vector>
 
+#include "core/replay_pacer.hpp"
 #include "drivers/uwb_can/range_naming.hpp"
-#include "drivers/uwb_can/replay_pacer.hpp"
 
 namespace ips::uwb_can {
 namespace {

@@ -1,6 +1,7 @@
 #pragma once
-// Paces recorded frames by their timestamps: a frame stamped t is handed on at
-// wall0 + (t - t0) / speed. When handing on falls behind by more than kMaxLag (a stall, or a live
+// Paces recorded frames by their timestamps (ips-uwb-can's candump lines; ips-uwb-tdoa-anchors'
+// records at --rate, record k stamped k seconds and paced at speed = rate; core/paced_input.hpp):
+// a frame stamped t is handed on at wall0 + (t - t0) / speed. When handing on falls behind by more than kMaxLag (a stall, or a live
 // stream whose lines arrive later than their timestamps say) or the timestamps go backwards, the
 // schedule restarts at that frame, so frames are never caught up in a burst, which would overflow
 // the receive buffers of LCM subscribers. speed <= 0: no pacing. Pure: the caller gives the time.
@@ -9,7 +10,7 @@
 
 #include "core/time.hpp"
 
-namespace ips::uwb_can {
+namespace ips {
 
 class ReplayPacer {
  public:
@@ -44,4 +45,4 @@ class ReplayPacer {
   Clock::time_point wall0_;
 };
 
-}  // namespace ips::uwb_can
+}  // namespace ips
