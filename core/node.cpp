@@ -17,6 +17,7 @@
 #include "core/channels.hpp"
 #include "core/lcm_url.hpp"
 #include "core/text_escape.hpp"
+#include "core/version.hpp"
 
 namespace ips {
 
@@ -238,12 +239,12 @@ bool Node::spin_once(int timeout_ms) {
   if (n < 0 && errno != EINTR) {
     report_error(std::string("poll: ") + std::strerror(errno));
   }
-  if (n > 0 && (fds[1].revents & POLLIN)) {
-    signalfd_siginfo si;
-    if (read(signal_fd_, &si, sizeof si) == static_cast<ssize_t>(sizeof si)) {
-      spdlog::info("{}: signal {} received, stopping", name_, si.ssi_signo);
-      stop_signal_ = static_cast<int>(si.ssi_signo);
-    }
+  // Nothing to read (EAGAIN) is no signal: a signal the process took with a handler of its own
+  // (ips-site's SIGHUP) wakes poll() on the signalfd before it is delivered to the handler.
+  if (signalfd_siginfo si; n > 0 && (fds[1].revents & POLLIN) &&
+                           read(signal_fd_, &si, sizeof si) == static_cast<ssize_t>(sizeof si)) {
+    spdlog::info("{}: signal {} received, stopping", name_, si.ssi_signo);
+    stop_signal_ = static_cast<int>(si.ssi_signo);
     stopping_ = true;
     return false;
   }
@@ -360,6 +361,7 @@ void Node::publish_health() {
   h.seq_lost = lost.seq.lost;
   h.recv_buf_bytes = lost.recv_buf_bytes;
   h.consistency = consistency_;
+  h.version = version_text();
   h.uptime_us = std::chrono::duration_cast<std::chrono::microseconds>(
                     std::chrono::steady_clock::now() - start_time_)
                     .count();

@@ -133,8 +133,9 @@ HangupHandler::HangupHandler(Node& node, std::function<void()> on_hangup) : node
     fn();
   });
   // The node takes SIGHUP through its signalfd while the signal is blocked (pending); with a
-  // handler and the signal unblocked it is delivered to the handler at once and never pending,
-  // so the node does not see it.
+  // handler and the signal unblocked it is delivered to the handler instead. The signalfd may
+  // still wake the node's poll() in between, with nothing to read then: the node goes on
+  // (core/node.cpp stops only on a signal it has read).
   struct sigaction sa{};
   sa.sa_handler = on_sighup;
   sigemptyset(&sa.sa_mask);

@@ -60,8 +60,10 @@ SiteOutcome SiteKeeper::offer_text(const std::string& text) {
 
 namespace {
 
-std::string vec_text(const Eigen::Vector3d& v) {
-  return fmt::format("[{:g}, {:g}, {:g}]", v.x(), v.y(), v.z());
+// "moved 0.10 m to [10.1, 0, 2.4]"
+std::string moved_text(const Eigen::Vector3d& from, const Eigen::Vector3d& to) {
+  return fmt::format("moved {:.2f} m to [{:g}, {:g}, {:g}]", (to - from).norm(), to.x(), to.y(),
+                     to.z());
 }
 
 // Both NaN counts as equal (an unset height or start).
@@ -115,8 +117,7 @@ std::string describe_site_change(const Site& before, const Site& after) {
                 [](const Anchor& b, const Anchor& a) {
                   std::vector<std::string> c;
                   if (!same(b.position, a.position))
-                    c.push_back(fmt::format("moved {:.2f} m to {}", (a.position - b.position).norm(),
-                                            vec_text(a.position)));
+                    c.push_back(moved_text(b.position, a.position));
                   if (b.kind != a.kind) c.push_back(fmt::format("kind {} -> {}", b.kind, a.kind));
                   if (!same(b.orientation_rad, a.orientation_rad)) c.push_back("turned");
                   if (b.enabled != a.enabled) c.push_back(a.enabled ? "enabled" : "disabled");
@@ -127,8 +128,7 @@ std::string describe_site_change(const Site& before, const Site& after) {
                 [](const BaroStation& b, const BaroStation& a) {
                   std::vector<std::string> c;
                   if (!same(b.position, a.position))
-                    c.push_back(fmt::format("moved {:.2f} m to {}", (a.position - b.position).norm(),
-                                            vec_text(a.position)));
+                    c.push_back(moved_text(b.position, a.position));
                   return c;
                 },
                 out);

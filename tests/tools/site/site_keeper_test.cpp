@@ -65,7 +65,7 @@ TEST(SiteKeeper, BadEditKeepsThePreviousSiteAndNamesFileAndLine) {
   k.offer_text(lab("[10.5, 0.0, 2.4]"));
   const SiteOutcome o = k.offer_text(lab("[10.0, 0.0]"));
   EXPECT_EQ(o.kind, Kind::kRejected);
-  EXPECT_EQ(o.text, "lab.yaml:4: anchors[1].position: expected a list of 3 numbers");
+  EXPECT_EQ(o.text, "lab.yaml:4: anchors[1].position: expected a list of 3 numbers [x, y, z]");
   EXPECT_EQ(k.error(), o.text);
   ASSERT_TRUE(k.has_site());
   EXPECT_EQ(k.site().anchors[1].position, Eigen::Vector3d(10.5, 0, 2.4));  // still the old one

@@ -54,7 +54,8 @@ save_by_rename() {
   sed "$1" "$SITE" >"$WORK/etc/.lab.yaml.new"
   mv "$WORK/etc/.lab.yaml.new" "$SITE"
 }
-TWR_TOOK="ips-uwb-twr: site 'lab' from ips-site \(4 anchors\)"
+TWR_TOOK="ips-uwb-twr: site 'lab' from ips-site \([0-9]+ anchors\)"
+SITE_IS="site 'lab' \([0-9]+ anchors, 1 tags\)"
 
 "$BIN/ips-bus-check" --timeout 30 || fail "multicast does not loop back inside the namespace"
 mkdir -p "$WORK/etc" "$WORK/store"
@@ -77,12 +78,12 @@ lines "$WORK/twr.err" "from ips-sim" 0
 
 echo "--- (b) an anchor moved: re-published, and the tracker takes it"
 t_edit=$(now)
-edit_in_place 's/position: \[10.0, 0.0, 2.4\]/position: [10.1, 0.0, 2.4]/; s/height_m: 1.2}/height_m: 1.25}/'
+edit_in_place 's/position: \[10.0, 0.0, 2.4\]/position: [10.1, 0.0, 2.4]/; s/{id: T1, height_m: 1.2/{id: T1, height_m: 1.25/'
 bus site "$LOG" --after "$t_edit" --anchor A2 --x 10.1 --count 1 --timeout 15 ||
   fail "(b) the edit was not on SITE within 15 s"
 wait_lines "$WORK/twr.err" "$TWR_TOOK" 2
 bus poses "$LOG" --after "$t_edit" --z 1.25 --count 20 --timeout 90 || fail "(b) POSE_UWB"
-moved="\(changed\): site 'lab' \(4 anchors, 1 tags\) replaced: anchor A2 moved 0.10 m to \[10.1, 0, 2.4\]; tag T1 height_m 1.2 -> 1.25; published on SITE"
+moved="\(changed\): $SITE_IS replaced: anchor A2 moved 0.10 m to \[10.1, 0, 2.4\]; tag T1 height_m 1.2 -> 1.25"
 wait_lines "$WORK/site.err" "$moved" 1
 lines "$WORK/site.err" "replaced:" 1
 cp "$SITE" "$WORK/good.yaml"
@@ -90,8 +91,9 @@ cp "$SITE" "$WORK/good.yaml"
 echo "--- (c) a broken edit: the old site stays, HEALTH says why"
 t_bad=$(now)
 save_by_rename 's/position: \[10.0, 8.0, 2.4\]/position: [10.0, 8.0]/'
-error="$SITE:5: anchors\[2\].position: expected a list of 3 numbers"
-health --state 1 --error "$SITE:5: anchors[2].position: expected a list of 3 numbers" \
+a3_line=$(grep -n "{id: A3," "$SITE" | cut -d: -f1)  # the line the loader names
+error="$SITE:$a3_line: anchors\[2\].position: expected a list of 3 numbers"
+health --state 1 --error "$SITE:$a3_line: anchors[2].position: expected a list of 3 numbers" \
   --after "$t_bad" --timeout 30 || fail "(c) ips-site's HEALTH is not degraded with the error"
 wait_lines "$WORK/site.err" "not published, the previous site stays: $error" 1
 t_degraded=$(now)
@@ -104,7 +106,7 @@ t_fix=$(now)
 cp "$WORK/good.yaml" "$WORK/etc/.lab.yaml.new"
 mv "$WORK/etc/.lab.yaml.new" "$SITE"
 health --state 0 --after "$t_fix" --timeout 30 || fail "(c) ips-site's HEALTH is not ok once fixed"
-wait_lines "$WORK/site.err" "\(changed\): loads again, as the site 'lab' \(4 anchors, 1 tags\) already published" 1
+wait_lines "$WORK/site.err" "\(changed\): loads again, as the $SITE_IS already published" 1
 bus site "$LOG" --after "$t_fix" --anchor A2 --x 10.1 --count 2 --timeout 30 || fail "(c) SITE"
 lines "$WORK/twr.err" "$TWR_TOOK" 2  # the same text: nothing new for the tracker
 
@@ -118,14 +120,14 @@ bus site "$LOG" --after "$t_link" --anchor A2 --x 10.15 --count 1 --timeout 15 |
 wait_lines "$WORK/twr.err" "$TWR_TOOK" 3
 # The target edited where it is: no change in the watched directory, SITE stays for 2 periods.
 t_target=$(now)
-sed -i 's/position: \[10.15, 0.0, 2.4\]/position: [10.2, 0.0, 2.4]/; s/height_m: 1.25}/height_m: 1.3}/' \
+sed -i 's/position: \[10.15, 0.0, 2.4\]/position: [10.2, 0.0, 2.4]/; s/{id: T1, height_m: 1.25/{id: T1, height_m: 1.3/' \
   "$WORK/store/lab.yaml"
 bus site "$LOG" --after "$t_target" --anchor A2 --x 10.15 --count 2 --timeout 30 || fail "(d) SITE"
 t_hup=$(now)
 kill -HUP "$site"
 bus site "$LOG" --after "$t_hup" --anchor A2 --x 10.2 --count 1 --timeout 15 ||
   fail "(d) SIGHUP did not publish the edit within 15 s"
-wait_lines "$WORK/site.err" "\(SIGHUP\): site 'lab' \(4 anchors, 1 tags\) replaced: anchor A2 moved 0.05 m to \[10.2, 0, 2.4\]; tag T1 height_m 1.25 -> 1.3" 1
+wait_lines "$WORK/site.err" "\(SIGHUP\): $SITE_IS replaced: anchor A2 moved 0.05 m to \[10.2, 0, 2.4\]; tag T1 height_m 1.25 -> 1.3" 1
 wait_lines "$WORK/twr.err" "$TWR_TOOK" 4
 bus poses "$LOG" --after "$t_hup" --z 1.3 --count 20 --timeout 90 || fail "(d) POSE_UWB"
 kill -0 "$site" || fail "ips-site ended on SIGHUP"
