@@ -9,6 +9,13 @@
 #   expect_error STATUS PATTERN CMD ARGS...  run STATUS CMD..., then ok when stderr is exactly
 #                                     one line matching the extended regular expression PATTERN,
 #                                     else fail with the stderr printed
+#   expect STATUS PATTERN CMD ARGS... CMD (timeout 60) exits with STATUS and prints $WANT_LINES
+#                                     (default 1) lines on stderr, the first matching the extended
+#                                     regular expression PATTERN: "ok: CMD ARGS -> <stderr>", else
+#                                     fail with the status, the line count and the stderr printed
+#   expect_saying STATUS TEXT CMD ARGS...  CMD exits with STATUS and prints exactly one line on
+#                                     stderr, "<program>: error: ..." containing TEXT (a fixed
+#                                     string): "ok: <program> ARGS -> STATUS: <stderr>", else fail
 # Needs $WORK (a directory of the caller's, e.g. from mktemp -d). Sets failures=0: the caller
 # ends with `echo "$failures failure(s)"; [ "$failures" -eq 0 ]`.
 failures=0
@@ -40,5 +47,37 @@ expect_error() {
       fail "$*: stderr does not match '$pattern':"
       sed 's/^/  stderr: /' "$WORK/err" | head -10
     fi
+  fi
+}
+
+expect() {
+  local want=$1 pattern=$2 status=0 lines
+  shift 2
+  timeout 60 "$@" >"$WORK/out" 2>"$WORK/err" || status=$?
+  lines=$(wc -l <"$WORK/err")
+  if [ "$status" -ne "$want" ] || [ "$lines" -ne "${WANT_LINES:-1}" ] ||
+    ! head -1 "$WORK/err" | grep -Eq -- "$pattern"; then
+    fail "$*"
+    echo "  status $status (want $want), $lines stderr lines (want ${WANT_LINES:-1}), pattern: $pattern"
+    sed 's/^/  stderr: /' "$WORK/err" | head -20
+  else
+    echo "ok: $* -> $(cat "$WORK/err")"
+  fi
+}
+
+expect_saying() {
+  local want=$1 text=$2 program status=0 err
+  program=$(basename "$3")
+  err=$(timeout 60 "${@:3}" 2>&1 >/dev/null) || status=$?
+  shift 3
+  if [ "$status" -ne "$want" ]; then
+    fail "$program $*: status $status (expected $want): $err"
+  elif [ "$(printf '%s\n' "$err" | wc -l)" -ne 1 ]; then
+    fail "$program $*: not one line: $err"
+  else
+    case "$err" in
+      "$program: error: "*"$text"*) echo "ok: $program $* -> $status: $err" ;;
+      *) fail "$program $*: '$err' does not say '$text'" ;;
+    esac
   fi
 }

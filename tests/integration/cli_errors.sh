@@ -7,27 +7,7 @@ BIN=$(cd "$1" && pwd)
 ROOT=$(cd "$2" && pwd)
 WORK=$(mktemp -d)
 trap 'rm -rf "$WORK"' EXIT
-failures=0
-
-# expect STATUS PATTERN CMD...: runs CMD, checks status, one stderr line (WANT_LINES lines if set)
-# whose first line matches PATTERN.
-expect() {
-  local want_status=$1 pattern=$2
-  shift 2
-  local status=0
-  timeout 60 "$@" >"$WORK/out" 2>"$WORK/err" || status=$?
-  local lines
-  lines=$(wc -l <"$WORK/err")
-  if [ "$status" -ne "$want_status" ] || [ "$lines" -ne "${WANT_LINES:-1}" ] ||
-    ! head -1 "$WORK/err" | grep -Eq -- "$pattern"; then
-    echo "FAIL: $*"
-    echo "  status $status (want $want_status), $lines stderr lines (want ${WANT_LINES:-1}), pattern: $pattern"
-    sed 's/^/  stderr: /' "$WORK/err" | head -20
-    failures=$((failures + 1))
-  else
-    echo "ok: $* -> $(cat "$WORK/err")"
-  fi
-}
+. "$ROOT/tests/integration/cli_check_lib.sh"  # fail, expect (WANT_LINES); counts failures
 
 cat >"$WORK/bad-site.yaml" <<'YAML'
 name: broken

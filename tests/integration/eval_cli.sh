@@ -19,12 +19,7 @@ BIN=$(cd "$1" && pwd)
 HERE=$(cd "$(dirname "$0")" && pwd)
 WORK=$(mktemp -d)
 trap 'rm -rf "$WORK"' EXIT
-failures=0
-fail() {
-  echo "FAIL: $*"
-  failures=$((failures + 1))
-}
-ok() { echo "ok: $*"; }
+. "$HERE/cli_check_lib.sh"  # fail, ok, expect_error; counts failures
 
 "$BIN/ips-sim" --scenario lab --tags 10 --seed 2 --duration 12 --out "$WORK/sim.lcm" --log-level warn
 "$BIN/ips-replay" "$WORK/sim.lcm" --out "$WORK/log.lcm" --log-level warn
@@ -245,29 +240,19 @@ else
   fail "dwell file that does not meet the log: status $status, $(cat "$WORK/err")"
 fi
 
-expect() {  # pattern, command...
-  local pattern=$1 status=0
-  shift
-  "$@" >/dev/null 2>"$WORK/err" || status=$?
-  if [ "$status" -eq 2 ] && [ "$(wc -l <"$WORK/err")" -eq 1 ] && grep -Eq -- "$pattern" "$WORK/err"; then
-    ok "$(cat "$WORK/err") (status 2)"
-  else
-    fail "$*: status $status, stderr: $(cat "$WORK/err")"
-  fi
-}
-expect "^ips-eval: error: --to 3 is before --from 5$" "$BIN/ips-eval" "$LOG" --from 5 --to 3
-expect "^ips-eval: error: --from: expected seconds .* got 'noon'" "$BIN/ips-eval" "$LOG" --from noon
-expect "^ips-eval: error: --by: " "$BIN/ips-eval" "$LOG" --by anchor
+expect_error 2 "^ips-eval: error: --to 3 is before --from 5$" "$BIN/ips-eval" "$LOG" --from 5 --to 3
+expect_error 2 "^ips-eval: error: --from: expected seconds .* got 'noon'" "$BIN/ips-eval" "$LOG" --from noon
+expect_error 2 "^ips-eval: error: --by: " "$BIN/ips-eval" "$LOG" --by anchor
 printf 'start,end,x,y\n0,10,1,1\n' >"$WORK/relative.csv"
-expect "^ips-eval: error: --dwell: .*relative.csv: 0 messages .*--dwell-time-unit" \
+expect_error 2 "^ips-eval: error: --dwell: .*relative.csv: 0 messages .*--dwell-time-unit" \
   "$BIN/ips-eval" "$LOG" --dwell "$WORK/relative.csv"
-expect "^ips-eval: error: --dwell: cannot read '/nonexistent.csv'" \
+expect_error 2 "^ips-eval: error: --dwell: cannot read '/nonexistent.csv'" \
   "$BIN/ips-eval" "$LOG" --dwell /nonexistent.csv
-expect "^ips-eval: error: --dwell-unit: expected a length unit" \
+expect_error 2 "^ips-eval: error: --dwell-unit: expected a length unit" \
   "$BIN/ips-eval" "$LOG" --dwell "$WORK/dwell.csv" --dwell-unit furlong
-expect "^ips-eval: error: --dwell excludes --static-point" \
+expect_error 2 "^ips-eval: error: --dwell excludes --static-point" \
   "$BIN/ips-eval" "$LOG" --dwell "$WORK/dwell.csv" --static-point 1,1
-expect "^ips-eval: error: --dwell-columns, --dwell-time-unit and --dwell-unit need --dwell" \
+expect_error 2 "^ips-eval: error: --dwell-columns, --dwell-time-unit and --dwell-unit need --dwell" \
   "$BIN/ips-eval" "$LOG" --dwell-unit cm
 
 # Events on an empty channel are legal LCM events: counted and skipped, not damage; the scores

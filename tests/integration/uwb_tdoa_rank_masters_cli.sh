@@ -11,8 +11,7 @@ BIN=$(cd "$1" && pwd)
 ROOT=$(cd "$2" && pwd)
 WORK=$(mktemp -d)
 trap 'rm -rf "$WORK"' EXIT
-failures=0
-fail() { echo "FAIL: $*"; failures=$((failures + 1)); }
+. "$ROOT/tests/integration/cli_check_lib.sh"  # fail, expect; counts failures
 
 # --- 1: the ranking ------------------------------------------------------------------------
 logs=()
@@ -56,19 +55,7 @@ grep -q 'from the mean of each log' "$WORK/table2" || fail "without --truth: no 
 [ $failures -eq 0 ] && echo "ok: rank-masters ranks six simulated logs"
 
 # --- 2: bad input ---------------------------------------------------------------------------
-# expect STATUS PATTERN CMD...: status, exactly one stderr line matching PATTERN.
-expect() {
-  local want_status=$1 pattern=$2
-  shift 2
-  local status=0
-  timeout 60 "$@" >"$WORK/out" 2>"$WORK/err" || status=$?
-  if [ "$status" -ne "$want_status" ] || [ "$(wc -l <"$WORK/err")" -ne 1 ] ||
-    ! grep -Eq -- "$pattern" "$WORK/err"; then
-    fail "$* -> status $status (want $want_status): $(cat "$WORK/err")"
-  else
-    echo "ok: $* -> $(cat "$WORK/err")"
-  fi
-}
+# expect STATUS PATTERN CMD... (cli_check_lib.sh): status, exactly one stderr line matching PATTERN.
 printf 'not a log\n' >"$WORK/text.lcm"
 cat >"$WORK/bad-params.yaml" <<'YAML'
 anchors:

@@ -8,61 +8,48 @@ set -uo pipefail
 BIN=$(cd "$1" && pwd)
 WORK=$(mktemp -d)
 trap 'rm -rf "$WORK"' EXIT
-failures=0
-fail() { echo "FAIL: $*"; failures=$((failures + 1)); }
-
-expect() {  # status expected-text args...
-  local want_rc=$1 want=$2 rc=0 err
-  shift 2
-  err=$("$BIN/ips-uwb-can" "$@" 2>&1 >/dev/null) || rc=$?
-  if [ "$rc" -ne "$want_rc" ]; then fail "ips-uwb-can $*: status $rc (expected $want_rc): $err"; return; fi
-  if [ "$(printf '%s\n' "$err" | wc -l)" -ne 1 ]; then fail "ips-uwb-can $*: not one line: $err"; return; fi
-  case "$err" in
-    "ips-uwb-can: error: "*"$want"*) echo "ok: ips-uwb-can $* -> $rc: $err" ;;
-    *) fail "ips-uwb-can $*: '$err' does not say '$want'" ;;
-  esac
-}
+. "$(dirname "$0")/../../integration/cli_check_lib.sh"  # fail, expect_saying; counts failures
 
 # --- SocketCAN: no AF_CAN here, or no such interface -----------------------------------------
 if python3 -c 'import socket; socket.socket(socket.AF_CAN, socket.SOCK_RAW, socket.CAN_RAW)' 2>/dev/null; then
   echo "this kernel has AF_CAN: checking the interface messages"
-  expect 1 "no network interface 'nosuch0'" --interface nosuch0
-  expect 1 "'lo' is not a CAN interface" --interface lo
+  expect_saying 1 "no network interface 'nosuch0'" "$BIN/ips-uwb-can" --interface nosuch0
+  expect_saying 1 "'lo' is not a CAN interface" "$BIN/ips-uwb-can" --interface lo
 else
   echo "this kernel has no AF_CAN: checking that message"
-  expect 1 "this kernel has no SocketCAN support (AF_CAN)" --interface can0
-  expect 1 "--candump-file FILE or --candump-stdin" --interface can0
-  expect 1 "(and there is no interface 'nosuch0')" --interface nosuch0
+  expect_saying 1 "this kernel has no SocketCAN support (AF_CAN)" "$BIN/ips-uwb-can" --interface can0
+  expect_saying 1 "--candump-file FILE or --candump-stdin" "$BIN/ips-uwb-can" --interface can0
+  expect_saying 1 "(and there is no interface 'nosuch0')" "$BIN/ips-uwb-can" --interface nosuch0
   rc=0; err=$("$BIN/ips-uwb-can" --interface lo 2>&1) || rc=$?
   [ "$rc" -eq 1 ] && [[ "$err" == *"(AF_CAN)"* ]] && [[ "$err" != *"no interface"* ]] ||
     fail "--interface lo (exists, no AF_CAN): $rc $err"
 fi
 
 # --- bad command lines: status 2 ---------------------------------------------------------------
-expect 2 "give exactly one of" 
-expect 2 "give exactly one of" --candump-stdin --candump-file x.log
-expect 2 "give exactly one of" --interface can0 --candump-stdin
-expect 2 "--base-id" --candump-stdin --base-id 0x800
-expect 2 "--base-id" --candump-stdin --base-id banana
-expect 2 "go past 0x7FF" --candump-stdin --base-id 0x7F0 --anchors 32
-expect 2 "at least one anchor" --candump-stdin --anchors 0
-expect 2 "'x' is not an anchor number (0..127)" --candump-stdin --anchor-id x=A1
-expect 2 "--tag-id 70000=T" --candump-stdin --tag-id 70000=T
-expect 2 "is also the default name of anchor 3" --candump-stdin --anchor-id 7=A3
-expect 2 "is given to two anchors" --candump-stdin --anchor-id 1=hall --anchor-id 2=hall
-expect 2 "--fd goes with" --candump-stdin --fd
-expect 2 "--speed goes with" --interface can0 --speed 2
-expect 2 "--time-from" --candump-stdin --time-from sometimes
-expect 2 "--interface: empty" --interface ""
-expect 2 "cannot be written as a candump interface" --to-candump x.lcm --interface 'a#b'
-expect 1 "cannot read candump log" --candump-file "$WORK/none.log"
+expect_saying 2 "give exactly one of" "$BIN/ips-uwb-can"
+expect_saying 2 "give exactly one of" "$BIN/ips-uwb-can" --candump-stdin --candump-file x.log
+expect_saying 2 "give exactly one of" "$BIN/ips-uwb-can" --interface can0 --candump-stdin
+expect_saying 2 "--base-id" "$BIN/ips-uwb-can" --candump-stdin --base-id 0x800
+expect_saying 2 "--base-id" "$BIN/ips-uwb-can" --candump-stdin --base-id banana
+expect_saying 2 "go past 0x7FF" "$BIN/ips-uwb-can" --candump-stdin --base-id 0x7F0 --anchors 32
+expect_saying 2 "at least one anchor" "$BIN/ips-uwb-can" --candump-stdin --anchors 0
+expect_saying 2 "'x' is not an anchor number (0..127)" "$BIN/ips-uwb-can" --candump-stdin --anchor-id x=A1
+expect_saying 2 "--tag-id 70000=T" "$BIN/ips-uwb-can" --candump-stdin --tag-id 70000=T
+expect_saying 2 "is also the default name of anchor 3" "$BIN/ips-uwb-can" --candump-stdin --anchor-id 7=A3
+expect_saying 2 "is given to two anchors" "$BIN/ips-uwb-can" --candump-stdin --anchor-id 1=hall --anchor-id 2=hall
+expect_saying 2 "--fd goes with" "$BIN/ips-uwb-can" --candump-stdin --fd
+expect_saying 2 "--speed goes with" "$BIN/ips-uwb-can" --interface can0 --speed 2
+expect_saying 2 "--time-from" "$BIN/ips-uwb-can" --candump-stdin --time-from sometimes
+expect_saying 2 "--interface: empty" "$BIN/ips-uwb-can" --interface ""
+expect_saying 2 "cannot be written as a candump interface" "$BIN/ips-uwb-can" --to-candump x.lcm --interface 'a#b'
+expect_saying 1 "cannot read candump log" "$BIN/ips-uwb-can" --candump-file "$WORK/none.log"
 
 # --- --to-candump on files ------------------------------------------------------------------
 "$BIN/ips-sim" --scenario lab --duration 2 --out "$WORK/sim.lcm" --log-level warn
-expect 1 "cannot read log" --to-candump "$WORK/none.lcm"
+expect_saying 1 "cannot read log" "$BIN/ips-uwb-can" --to-candump "$WORK/none.lcm"
 echo "not a log" > "$WORK/text.lcm"
-expect 1 "is not an LCM log" --to-candump "$WORK/text.lcm"
-expect 1 "anchor id 'A1' has no anchor number" --to-candump "$WORK/sim.lcm" --anchor-prefix X
+expect_saying 1 "is not an LCM log" "$BIN/ips-uwb-can" --to-candump "$WORK/text.lcm"
+expect_saying 1 "anchor id 'A1' has no anchor number" "$BIN/ips-uwb-can" --to-candump "$WORK/sim.lcm" --anchor-prefix X
 "$BIN/ips-uwb-can" --to-candump "$WORK/sim.lcm" --log-level warn > "$WORK/classic.log" ||
   fail "--to-candump exited with $?"
 "$BIN/ips-uwb-can" --to-candump "$WORK/sim.lcm" --fd --interface vcan0 --base-id 0x100 \

@@ -7,54 +7,42 @@ BIN=$(cd "$1" && pwd)
 P=ips-uwb-tdoa-anchors
 WORK=$(mktemp -d)
 trap 'rm -rf "$WORK"' EXIT
-failures=0
-fail() { echo "FAIL: $*"; failures=$((failures + 1)); }
-
-expect() {  # status expected-text args...
-  local want_rc=$1 want=$2 rc=0 err
-  shift 2
-  err=$("$BIN/$P" "$@" 2>&1 >/dev/null) || rc=$?
-  if [ "$rc" -ne "$want_rc" ]; then fail "$P $*: status $rc (expected $want_rc): $err"; return; fi
-  if [ "$(printf '%s\n' "$err" | wc -l)" -ne 1 ]; then fail "$P $*: not one line: $err"; return; fi
-  case "$err" in
-    "$P: error: "*"$want"*) echo "ok: $P $* -> $rc: $err" ;;
-    *) fail "$P $*: '$err' does not say '$want'" ;;
-  esac
-}
+. "$(dirname "$0")/../../integration/cli_check_lib.sh"  # fail, expect_saying; counts failures
 
 out=$("$BIN/$P" --help) || fail "--help: status $?"
 for flag in --tcp --udp --file --to-records --id --rate --rx-power --lcm-url --channel --log-level; do
   [[ "$out" == *"$flag"* ]] || fail "--help does not mention $flag"
 done
 
-expect 2 "give exactly one of --tcp, --udp, --file, --to-records"
-expect 2 "give exactly one of" --tcp 127.0.0.1:5000 --udp 5000
-expect 2 "--rate goes with --file" --tcp 127.0.0.1:5000 --rate 10
-expect 2 "--reconnect-max-s goes with --tcp" --udp 5000 --reconnect-max-s 2
-expect 2 "expected HOST:PORT" --tcp 127.0.0.1
-expect 2 "port '70000x' is not a number" --tcp host:70000x
-expect 2 "port 70000 is not in 1..65535" --tcp host:70000
-expect 2 "write an IPv6 address as [ADDR]:PORT" --tcp ::1:5000
-expect 2 "'localhost' is not an IPv4 address" --udp localhost:5000
-expect 2 "port 0 is not in 1..65535" --udp 0
-expect 2 "--id 0006: expected HEX=NAME" --udp 5000 --id 0006
-expect 2 "'06' is not a 4-hex-digit wire id" --udp 5000 --id 06=A6
-expect 2 "is named twice" --udp 5000 --id 0006=A6 --id 0006=B6
-expect 2 "--rate" --file x --rate -1
-expect 2 "--channel" --udp 5000 --channel NOPE=X
-expect 2 "--rx-power" --udp 5000 --rx-power dw1000
-expect 2 "--rx-power does not go with --to-records" --to-records x.lcm --rx-power dw1000-prf64
-expect 1 "cannot read '$WORK/missing.txt'" --file "$WORK/missing.txt"
-expect 1 "cannot read log '$WORK/missing.lcm'" --to-records "$WORK/missing.lcm"
+expect_saying 2 "give exactly one of --tcp, --udp, --file, --to-records" "$BIN/$P"
+expect_saying 2 "give exactly one of" "$BIN/$P" --tcp 127.0.0.1:5000 --udp 5000
+expect_saying 2 "--rate goes with --file" "$BIN/$P" --tcp 127.0.0.1:5000 --rate 10
+expect_saying 2 "--reconnect-max-s goes with --tcp" "$BIN/$P" --udp 5000 --reconnect-max-s 2
+expect_saying 2 "expected HOST:PORT" "$BIN/$P" --tcp 127.0.0.1
+expect_saying 2 "port '70000x' is not a number" "$BIN/$P" --tcp host:70000x
+expect_saying 2 "port 70000 is not in 1..65535" "$BIN/$P" --tcp host:70000
+expect_saying 2 "write an IPv6 address as [ADDR]:PORT" "$BIN/$P" --tcp ::1:5000
+expect_saying 2 "'localhost' is not an IPv4 address" "$BIN/$P" --udp localhost:5000
+expect_saying 2 "port 0 is not in 1..65535" "$BIN/$P" --udp 0
+expect_saying 2 "--id 0006: expected HEX=NAME" "$BIN/$P" --udp 5000 --id 0006
+expect_saying 2 "'06' is not a 4-hex-digit wire id" "$BIN/$P" --udp 5000 --id 06=A6
+expect_saying 2 "is named twice" "$BIN/$P" --udp 5000 --id 0006=A6 --id 0006=B6
+expect_saying 2 "--rate" "$BIN/$P" --file x --rate -1
+expect_saying 2 "--channel" "$BIN/$P" --udp 5000 --channel NOPE=X
+expect_saying 2 "--rx-power" "$BIN/$P" --udp 5000 --rx-power dw1000
+expect_saying 2 "--rx-power does not go with --to-records" "$BIN/$P" --to-records x.lcm --rx-power dw1000-prf64
+expect_saying 1 "cannot read '$WORK/missing.txt'" "$BIN/$P" --file "$WORK/missing.txt"
+expect_saying 1 "cannot read log '$WORK/missing.lcm'" "$BIN/$P" --to-records "$WORK/missing.lcm"
 head -c 2000 /dev/urandom > "$WORK/noise.bin"
-expect 1 "is not an LCM log" --to-records "$WORK/noise.bin"
+expect_saying 1 "is not an LCM log" "$BIN/$P" --to-records "$WORK/noise.bin"
 printf 'hello\nworld\n' > "$WORK/text.txt"
-expect 1 "holds no anchor report record (first: record does not start with '|'" \
+expect_saying 1 "holds no anchor report record (first: record does not start with '|'" "$BIN/$P" \
   --lcm-url memq:// --log-level off --file "$WORK/text.txt"
 python3 -c 'import socket,time,sys; s=socket.socket(socket.AF_INET,socket.SOCK_DGRAM); s.bind(("127.0.0.1",0)); print(s.getsockname()[1],flush=True); time.sleep(120)' > "$WORK/port" 2>/dev/null &
 holder=$!
 for _ in $(seq 1200); do [ -s "$WORK/port" ] && break; sleep 0.05; done
-expect 1 "cannot bind UDP 127.0.0.1:$(cat "$WORK/port")" --lcm-url memq:// --udp "$(cat "$WORK/port")"
+expect_saying 1 "cannot bind UDP 127.0.0.1:$(cat "$WORK/port")" "$BIN/$P" --lcm-url memq:// \
+  --udp "$(cat "$WORK/port")"
 kill $holder 2>/dev/null
 
 # A file of good and bad records: the good ones are read, the bad ones counted; status 0.
