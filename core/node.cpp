@@ -327,6 +327,18 @@ void Node::end_lasting_error(const std::string& key) {
   }
 }
 
+void Node::report_note(const std::string& key, const std::string& text) {
+  auto [it, added] = notes_.try_emplace(key, text);
+  it->second = text;
+  if (added) spdlog::info("{}: {}", name_, printable(text));
+}
+
+std::string Node::note() const {
+  std::string out;
+  for (const auto& [key, text] : notes_) out += (out.empty() ? "" : "; ") + text;
+  return out;
+}
+
 void Node::publish_health() {
   if (degraded_by_error_ &&
       std::chrono::duration<double>(std::chrono::steady_clock::now() - last_error_at_).count() >=
@@ -361,6 +373,7 @@ void Node::publish_health() {
   h.seq_lost = lost.seq.lost;
   h.recv_buf_bytes = lost.recv_buf_bytes;
   h.consistency = consistency_;
+  h.note = note();
   h.version = version_text();
   h.uptime_us = std::chrono::duration_cast<std::chrono::microseconds>(
                     std::chrono::steady_clock::now() - start_time_)

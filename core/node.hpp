@@ -11,6 +11,7 @@
 #include <signal.h>
 
 #include <list>
+#include <map>
 #include <memory>
 #include <set>
 #include <stdexcept>
@@ -130,6 +131,12 @@ class Node {
   // The condition is over. Once none is left the process is back to its own state, and a
   // degradation by errors reported meanwhile ends too (they mostly came of the device going).
   void end_lasting_error(const std::string& key);
+  // What a process in good health has to say, named by `key` (ips-ins: "T1: ... not a
+  // foot-mounted IMU; no POSE_INS"): HEALTH's `note` (the notes joined by "; "), logged at info
+  // when the key first appears (its text may change). Not a problem: the state is untouched.
+  void report_note(const std::string& key, const std::string& text);
+  void end_note(const std::string& key) { notes_.erase(key); }
+  std::string note() const;
   void set_state(int8_t state) {
     state_ = state;
     degraded_by_error_ = false;
@@ -191,6 +198,7 @@ class Node {
   std::string consistency_;
   bool degraded_by_error_ = false;  // state_ is DEGRADED because of report_error()
   std::set<std::string> lasting_;  // report_lasting_error() keys not ended yet
+  std::map<std::string, std::string> notes_;  // report_note() by key
   std::chrono::steady_clock::time_point last_error_at_;
   double degraded_hold_s_ = 60.0;
   std::string health_channel_;
