@@ -41,7 +41,7 @@ InsParams parse_ins_params(const YamlField& s) {
                 "detector_gyro_sigma_dps", "detector_threshold", "min_stance_s", "alignment_s",
                 "accel_noise_mps2", "gyro_noise_dps", "zupt_sigma_mps", "initial_position_sigma_m",
                 "initial_velocity_sigma_mps", "initial_tilt_sigma_deg", "initial_heading_sigma_deg",
-                "min_swing_s", "min_swing_rate_dps", "max_swing_s", "stance_timeout_s", "max_gap_s", "publish_period_s", "max_tags"});
+                "min_swing_s", "min_swing_rate_dps", "max_swing_s", "stance_timeout_s", "max_gap_s", "publish_period_s", "max_tags", "foot_imus"});
   // Every parameter is bounded: a SITE message on the bus is outside input.
   auto bounded = [&](const char* key, double v, double lo, double hi) {
     v = s.get_double(key, v);
@@ -84,6 +84,11 @@ InsParams parse_ins_params(const YamlField& s) {
   p.max_gap_s = bounded("max_gap_s", p.max_gap_s, 1e-4, 60);
   p.publish_period_s = bounded("publish_period_s", p.publish_period_s, 0, 3600);
   p.max_tags = bounded_int("max_tags", p.max_tags, 1, 100000);
+  if (const YamlField feet = s["foot_imus"]; feet.defined()) {
+    if (!feet.is_sequence()) feet.fail("expected a list of IMU device ids, e.g. [foot1, foot2]");
+    if (feet.size() > 100000) feet.fail("at most 100000 ids");
+    for (size_t i = 0; i < feet.size(); ++i) p.foot_imus.push_back(feet[i].as_string());
+  }
   return p;
 }
 
@@ -312,10 +317,17 @@ bool InsEstimator::gait_believed(const Track& t) const {
   return t.last_utime - t.last_believed_utime <= s_to_utime(params_.max_swing_s);
 }
 
-std::string InsEstimator::problems() const {
+std::string InsEstimator::problems() const { return problems_of(true, false); }
+std::string InsEstimator::foot_problems() const { return problems_of(false, true); }
+std::string InsEstimator::other_imu_notes() const { return problems_of(false, false); }
+
+std::string InsEstimator::problems_of(bool all, bool foot) const {
   std::string out;
   const utime_t limit = s_to_utime(params_.stance_timeout_s);
   for (const auto& [id, t] : tracks_) {
+    if (!all && foot != (std::find(params_.foot_imus.begin(), params_.foot_imus.end(), id) !=
+                         params_.foot_imus.end()))
+      continue;
     std::string p;
     if (t.phase == Phase::kAligning) {
       if (t.last_utime - t.first_utime > limit)

@@ -26,6 +26,7 @@
 #include <map>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "core/consistency.hpp"
 #include "core/drop_reasons.hpp"
@@ -56,6 +57,11 @@ struct InsParams {
   double max_gap_s = 0.1;         // a longer gap between samples is not integrated
   double publish_period_s = 0.1;  // 0: a pose per sample
   int max_tags = 1000;
+  // The IMUs the site says are on a foot (device ids). One of them that never shows a stance
+  // phase is a fault (HEALTH degraded); any other IMU without stance phases is taken for what it
+  // most likely is, a phone in hand or in a pocket: said as a note, HEALTH stays OK. Empty: no
+  // IMU is declared, so none is a fault.
+  std::vector<std::string> foot_imus;
 };
 
 // Reads `estimators.ins` of the site; throws ConfigError naming file, line and field.
@@ -130,11 +136,17 @@ class InsEstimator {
   // phase for 6.2 s (the IMU moves but never like a foot: hand-held or in a pocket?); no
   // POSE_INS". For HEALTH (a lasting error) and ips-replay.
   std::string problems() const;
+  // The same split by the site's foot_imus: those declared on a foot (a fault: HEALTH's lasting
+  // error) and the others (HEALTH's note: not a foot-mounted IMU, nothing to do for ips-ins).
+  std::string foot_problems() const;
+  std::string other_imu_notes() const;
   // The ZUPT innovations against zupt_sigma_mps, per tag (core/consistency.hpp).
   const ConsistencyMonitor& consistency() const { return consistency_; }
 
  private:
   enum class Phase { kAligning, kNavigating };
+  // problems() of the tracks for which `declared(id)` (on the site's foot_imus) equals `foot`.
+  std::string problems_of(bool all, bool foot) const;
   // Where a track starts (relative navigation cannot find it: 001 section 5).
   struct StartPose {
     Eigen::Vector3d position_m = Eigen::Vector3d::Zero();

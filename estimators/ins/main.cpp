@@ -33,17 +33,24 @@ int main(int argc, char** argv) {
         opts.channel(ips::channel::kImu),
         [&](const ips::imu_t& m, const std::string&) { est.on_imu(m); });
     // Samples that gave no pose, by reason, in HEALTH (drops, last_error) once a second.
-    // A tag whose IMU shows no stance phases (not on a foot) gets no POSE_INS: said as a lasting
-    // error while it lasts. ZUPT innovations against zupt_sigma_mps: HEALTH's consistency.
+    // A tag whose IMU shows no stance phases (not on a foot) gets no POSE_INS: said while it
+    // lasts. ZUPT innovations against zupt_sigma_mps: HEALTH's consistency.
     ips::DropHealth drop_health;
     ips::ConsistencyHealth consistency_health;
     node.add_timer(1.0, [&] {
       drop_health.report(node, est.drop_reasons());
-      const std::string stance = est.problems();
+      // An IMU the site declares on a foot (estimators.ins.foot_imus) without stance phases is a
+      // fault; any other is most likely a phone, said as a note (HEALTH stays OK).
+      const std::string stance = est.foot_problems();
       if (stance.empty())
         node.end_lasting_error("ins-stance");
       else
         node.report_lasting_error("ins-stance", stance);
+      const std::string other = est.other_imu_notes();
+      if (other.empty())
+        node.end_note("ins-not-a-foot");
+      else
+        node.report_note("ins-not-a-foot", other);
       consistency_health.report(node, est.consistency());
     });
     return node.run();

@@ -5,7 +5,8 @@
 #     --device-id foot1 --out foot.lcm
 #   ips-replay foot.lcm --only ins --site site.yaml --out foot-replay.lcm
 #   ips-export foot-replay.lcm --channels POSE_INS --format csv --out foot-poses
-# site.yaml has no anchors and the tag foot1 starting at the origin, toes along +x (ips-ins's
+# site.yaml has no anchors and the tag foot1 starting at the origin, toes along +x, its IMU declared
+# on the foot (estimators.ins.foot_imus: no stance phase would be a fault) (ips-ins's
 # defaults otherwise). There is no truth: the row gives the number of poses and, in `other`, the
 # track's horizontal path length (pose to pose, 10 Hz) and the distance from its end to its start,
 # each against the repository's own ZUPT INS, rerun here by openshoe_reference.py (a port of
@@ -24,7 +25,7 @@ run() {
 f="$DATA/OpenShoe C/OpenShoeDataSet.txt"
 [ -f "$f" ] || { echo "foot-openshoe: no 'OpenShoe C/OpenShoeDataSet.txt' in $DATA" >&2; exit 1; }
 w="$WORK/foot"
-printf 'name: foot-openshoe\nanchors: []\ntags:\n  - {id: foot1, start_position: [0, 0, 0], start_heading_deg: 0}\n' \
+printf 'name: foot-openshoe\nanchors: []\ntags:\n  - {id: foot1, start_position: [0, 0, 0], start_heading_deg: 0}\nestimators:\n  ins:\n    foot_imus: [foot1]\n' \
   >"$WORK/site.yaml"
 run "$BIN/ips-phone-imu" --file "$f" --columns ax,ay,az,gx,gy,gz --rate 820 --device-id foot1 \
   --out "$w.lcm"

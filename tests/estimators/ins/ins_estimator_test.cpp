@@ -532,6 +532,27 @@ TEST(InsEstimator, APhoneNeverAtRestIsSaidNotSilent) {
       << r.est.problems();
 }
 
+// Issue 23: the same phone is a note (HEALTH stays OK) unless the site declares it on a foot
+// (estimators.ins.foot_imus), when it is a fault (HEALTH degraded).
+TEST(InsEstimator, NoStanceIsAFaultOnlyForAnImuTheSiteDeclaresOnAFoot) {
+  for (const char* params : {"{alignment_s: 1}", "{alignment_s: 1, foot_imus: [F1]}",
+                             "{alignment_s: 1, foot_imus: [F9]}"}) {
+    SCOPED_TRACE(params);
+    Harness r;
+    r.est.set_site(site_with(params));
+    std::mt19937_64 rng(4);
+    for (int64_t k = 0; k < 11 * 200; ++k) {
+      const auto [f, w] = hand_held(kDt * static_cast<double>(k), rng);
+      r.est.on_imu(sample(at(k), f, w));
+    }
+    const bool declared = std::string(params).find("[F1]") != std::string::npos;
+    ASSERT_NE(r.est.problems(), "");
+    EXPECT_EQ(r.est.foot_problems(), declared ? r.est.problems() : "");
+    EXPECT_EQ(r.est.other_imu_notes(), declared ? "" : r.est.problems());
+  }
+  EXPECT_THROW(parse_ins_params(parse_yaml_text("foot_imus: F1", "site")), ConfigError);
+}
+
 // The ZUPT noise is the foot's own velocity in stance, which the IMU sees. A foot at rest whose
 // velocity jitters by 0.01 m/s per axis (white, 200 Hz; the detector made blind to it by a large
 // detector_accel_sigma_mps2): with zupt_sigma_mps 0.01 the ZUPT innovations agree (median NIS
