@@ -2,13 +2,16 @@
 # ips-deploy on one machine (LCM memq://, no network needed):
 #  1. check and its errors (file:line: field: reason), a host that is not there, a program that
 #     is not there;
-#  2. systemd: the units written, refused over existing files without --force, and accepted by
-#     `systemd-analyze verify` when it is installed (only the two keys systemd 252 does not know
-#     yet may be warned about);
+#  2. systemd: the units written for the systemd version given or found here, refused over
+#     existing files without --force, refused when a program cannot be found unless
+#     --allow-missing, and accepted by `systemd-analyze verify` when it is installed: the units
+#     for this machine's systemd without a single warning (no unknown key);
 #  3. run: output prefixed with the process name, a failing process restarted with a doubling
-#     back-off (0.2, 0.4, 0.8 s), a process that ignores SIGINT killed after its stop timeout,
-#     SIGTERM stopping everything with status 0, environment and working directory;
-#  4. run ends by itself, status 0, when every process has ended cleanly and none restarts;
+#     back-off (0.2, 0.4, 0.8 s) and each exit printed once, a process that ignores SIGINT killed
+#     after its stop timeout, SIGTERM stopping everything with status 0, environment and working
+#     directory, the warning when this machine's hostname is not the host's;
+#  4. run ends by itself, status 0, when every process has ended cleanly and none restarts; a
+#     working_dir that is not here is an error naming it and --working-dir, which overrides it;
 #  5. SIGHUP stops everything cleanly; a SIGKILLed ips-deploy leaves no process running.
 set -euo pipefail
 BIN=$(cd "$1" && pwd)
@@ -18,6 +21,10 @@ source "$ROOT/tests/integration/cli_test_lib.sh"
 WORK=$(mktemp -d)
 trap 'rm -rf "$WORK"' EXIT
 D="$BIN/ips-deploy"
+# The run files of `run` (tools/deploy/run_file.hpp) go here, not into the user's.
+export XDG_RUNTIME_DIR="$WORK/xdg"
+mkdir -m 700 "$XDG_RUNTIME_DIR"
+HOSTNAME_HERE=$(hostname)
 
 cat >"$WORK/d.yaml" <<EOF
 name: bench
@@ -57,7 +64,10 @@ sed 's|command: ips-uwb-twr|command: ips-no-such-program|' "$WORK/d.yaml" >"$WOR
 expect_error_saying "process 'twr': no program 'ips-no-such-program'" "$D" run "$WORK/missing.yaml" --host pc
 
 # --- 2: systemd ----------------------------------------------------------------------------
-"$D" systemd "$WORK/d.yaml" --host pc --out "$WORK/units" >/dev/null
+# For systemd 254: the exponential back-off keys, no retry units.
+"$D" systemd "$WORK/d.yaml" --host pc --out "$WORK/units" --systemd-version 254 >"$WORK/units.txt"
+grep -q "^wrote 4 units for host pc into $WORK/units, for systemd 254 (--systemd-version)$" "$WORK/units.txt" ||
+  fail "systemd output: $(cat "$WORK/units.txt")"
 ls "$WORK/units" | sort >"$WORK/units.list"
 printf '%s\n' ips-bench-flaky.service ips-bench-stubborn.service ips-bench-twr.service \
   ips-bench.target | diff - "$WORK/units.list" || fail "unit files"
@@ -67,24 +77,75 @@ grep -qx 'After=network-online.target ips-bench-flaky.service' "$WORK/units/ips-
 grep -qx 'Environment="LCM_DEFAULT_URL=memq://"' "$WORK/units/ips-bench-twr.service" || fail "LCM URL"
 grep -qx 'Restart=always' "$WORK/units/ips-bench-twr.service" || fail "Restart=always"
 grep -qx 'RestartSec=0.2s' "$WORK/units/ips-bench-flaky.service" || fail "RestartSec"
+grep -qx 'RestartSteps=2' "$WORK/units/ips-bench-flaky.service" || fail "RestartSteps (254)"
 expect_error_saying "exists (--force to overwrite)" "$D" systemd "$WORK/d.yaml" --host pc --out "$WORK/units"
-"$D" systemd "$WORK/d.yaml" --host pc --out "$WORK/units" --force >/dev/null || fail "--force"
-if command -v systemd-analyze >/dev/null; then
+"$D" systemd "$WORK/d.yaml" --host pc --out "$WORK/units" --systemd-version 254 --force >/dev/null || fail "--force"
+expect_error_saying "--systemd-version: Value 100 not in range" "$D" systemd "$WORK/d.yaml" --host pc \
+  --out "$WORK/units-100" --systemd-version 100
+
+# For systemd 252: not a key 252 does not know; a start limit and a retry unit instead.
+"$D" systemd "$WORK/d.yaml" --host pc --out "$WORK/units-252" --systemd-version 252 >/dev/null
+ls "$WORK/units-252" | sort >"$WORK/units-252.list"
+printf '%s\n' ips-bench-flaky-retry.service ips-bench-flaky.service ips-bench-stubborn-retry.service \
+  ips-bench-stubborn.service ips-bench-twr-retry.service ips-bench-twr.service ips-bench.target |
+  diff - "$WORK/units-252.list" || fail "unit files for 252"
+! grep '^RestartSteps=\|^RestartMaxDelaySec=' "$WORK"/units-252/* || fail "252: keys of 254"
+# flaky: 0.2 s doubling to 0.8 s is 2 doublings: 3 starts in 0.2 + 0.4 + 0.8 s, then the retry.
+grep -qx 'StartLimitIntervalSec=1.4s' "$WORK/units-252/ips-bench-flaky.service" || fail "252: interval"
+grep -qx 'StartLimitBurst=3' "$WORK/units-252/ips-bench-flaky.service" || fail "252: burst"
+grep -qx 'OnFailure=ips-bench-flaky-retry.service' "$WORK/units-252/ips-bench-flaky.service" ||
+  fail "252: OnFailure="
+grep -qx 'ExecStart=/bin/sleep 0.8' "$WORK/units-252/ips-bench-flaky-retry.service" || fail "252: retry"
+
+# The version found here: systemctl --version's, else 252, said.
+"$D" systemd "$WORK/d.yaml" --host pc --out "$WORK/units-here" >"$WORK/units-here.txt"
+here=$(systemctl --version 2>/dev/null | sed -n '1s/^systemd \([0-9]*\).*/\1/p' || true)
+if [ -n "$here" ]; then
+  grep -q "for systemd $here (from systemctl --version)$" "$WORK/units-here.txt" ||
+    fail "version found here: $(cat "$WORK/units-here.txt")"
+else
+  grep -q "for systemd 252 (the default: systemctl --version gave no version here; --systemd-version N to say)$" \
+    "$WORK/units-here.txt" || fail "version by default: $(cat "$WORK/units-here.txt")"
+fi
+head -1 "$WORK/units-here/ips-bench-twr.service" | grep -q "for systemd ${here:-252}\. " || fail "header"
+if command -v systemd-analyze >/dev/null && [ -n "$here" ]; then
+  # The units for this machine's systemd: not one warning (an unknown key is one).
   set +e
-  verify=$(cd "$WORK/units" && systemd-analyze verify ./*.service ./*.target 2>&1)
+  verify=$(cd "$WORK/units-here" && systemd-analyze verify ./*.service ./*.target 2>&1)
   rc=$?
   set -e
-  unexpected=$(echo "$verify" | grep -v "Unknown key 'Restart\(Steps\|MaxDelaySec\)' in section \[Service\], ignoring" | grep -v '^$' || true)
-  [ "$rc" -eq 0 ] && [ -z "$unexpected" ] || fail "systemd-analyze verify (status $rc): $verify"
-  echo "systemd-analyze verify: ok"
+  [ "$rc" -eq 0 ] && [ -z "$(echo "$verify" | grep -v '^$' || true)" ] ||
+    fail "systemd-analyze verify of the units for systemd $here (status $rc): $verify"
+  echo "systemd-analyze verify: the units for systemd $here: no warning"
 else
-  echo "systemd-analyze not installed: the units' syntax is not verified"
+  echo "SKIP systemd-analyze verify: systemd-analyze or systemctl not installed here"
 fi
 
-# The example in config/ is valid, and gives units for each of its hosts.
+# A program that cannot be found (bin_dir not here, not in systemd's search path): refused,
+# naming it, unless --allow-missing.
+sed "s|^working_dir: .*|bin_dir: $WORK/no-such-bin|; s|command: ips-uwb-twr|command: ips-no-such-program|" \
+  "$WORK/d.yaml" >"$WORK/nobin.yaml"
+expect_error_saying "1 of 3 programs not found: twr: ips-no-such-program (no directory $WORK/no-such-bin here, nor in systemd's search path); --bin-dir DIR to say where they are, or --allow-missing to write the units all the same" \
+  "$D" systemd "$WORK/nobin.yaml" --host pc --out "$WORK/units-nobin"
+[ ! -e "$WORK/units-nobin" ] || fail "units written although refused"
+set +e
+"$D" systemd "$WORK/nobin.yaml" --host pc --out "$WORK/units-nobin" --allow-missing >/dev/null 2>"$WORK/nobin.err"
+rc=$?
+set -e
+[ "$rc" -eq 0 ] || fail "--allow-missing: status $rc: $(cat "$WORK/nobin.err")"
+grep -qx "ips-deploy: warning: 1 of 3 programs not found: twr: ips-no-such-program (no directory $WORK/no-such-bin here, nor in systemd's search path); writing the units all the same (--allow-missing)" \
+  "$WORK/nobin.err" || fail "--allow-missing: $(cat "$WORK/nobin.err")"
+grep -qx 'ExecStart="ips-no-such-program"' "$WORK/units-nobin/ips-bench-twr.service" || fail "--allow-missing: ExecStart"
+
+# The example in config/ is valid, and gives units for each of its hosts: refused where its
+# bin_dir is not installed, written with --bin-dir where the programs are built.
 "$D" check "$ROOT/config/deploy/lab-3-hosts.yaml" >/dev/null || fail "config/deploy/lab-3-hosts.yaml"
+if [ ! -d /usr/local/lib/ips-fusion/bin ]; then
+  expect_error_saying "--allow-missing" "$D" systemd "$ROOT/config/deploy/lab-3-hosts.yaml" --host compute --out "$WORK/example-refused"
+fi
 for h in sensors compute recorder; do
-  "$D" systemd "$ROOT/config/deploy/lab-3-hosts.yaml" --host "$h" --out "$WORK/example-$h" >/dev/null
+  "$D" systemd "$ROOT/config/deploy/lab-3-hosts.yaml" --host "$h" --out "$WORK/example-$h" \
+    --bin-dir "$BIN" --allow-missing --systemd-version 254 >/dev/null 2>&1
 done
 [ "$(ls "$WORK"/example-*/*.service | wc -l)" -eq 6 ] || fail "example: $(ls "$WORK"/example-*)"
 grep -qx 'User=ips' "$WORK/example-recorder/ips-lab-record.service" || fail "example: User="
@@ -105,10 +166,19 @@ cat "$WORK/run.out"
 grep -q "^\[flaky\] hello from $(basename "$WORK") flaky$" "$WORK/run.out" ||
   fail "the environment or working directory did not reach the process"
 grep -q '^\[stubborn\] ready$' "$WORK/run.out" || fail "no [stubborn] output"
-for delay in 0.2 0.4 0.8; do
-  grep -q "flaky exited with status 3 after .*; restarting in $delay s" "$WORK/run.out" ||
-    fail "no restart after $delay s"
+for delay in 0.2 0.4; do
+  # Once: on stdout, and not again on stderr.
+  [ "$(cat "$WORK/run.out" "$WORK/run.err" | grep -c "flaky exited with status 3 after .*; restarting in $delay s")" -eq 1 ] ||
+    fail "the restart after $delay s is not printed exactly once: $(cat "$WORK/run.out" "$WORK/run.err")"
 done
+grep -q "flaky exited with status 3 after .*; restarting in 0.8 s" "$WORK/run.out" || fail "no restart after 0.8 s"
+grep -q "exited" "$WORK/run.err" && fail "exits printed on stderr too: $(cat "$WORK/run.err")"
+# The file's host pc has hostname pc: unless this machine is called so, one warning naming both.
+if [ "$HOSTNAME_HERE" != pc ]; then
+  [ "$(grep -c 'warning' "$WORK/run.err")" -eq 1 ] &&
+    grep -qxF "ips-deploy: warning: this machine's hostname is '$HOSTNAME_HERE', not 'pc' (host pc's in $WORK/d.yaml); HEALTH will say '$HOSTNAME_HERE'" \
+      "$WORK/run.err" || fail "hostname warning: $(cat "$WORK/run.err")"
+fi
 grep -q '^\[ips-deploy\] stubborn did not stop in time: SIGKILL$' "$WORK/run.out" ||
   fail "stubborn was not killed after its stop timeout"
 grep -q '^\[ips-deploy\] twr stopped (status 0)$' "$WORK/run.out" || fail "twr did not stop on SIGINT"
@@ -122,17 +192,19 @@ awk -v t="$elapsed" 'BEGIN { exit !(t >= 2.0 && t < 30) }' || fail "run took $el
 echo "run: restarts at 0.2, 0.4, 0.8 s, SIGKILL after the stop timeout, status 0 ($elapsed s)"
 
 # --- 4: run ends when everything has ended ---------------------------------------------------
-cat >"$WORK/once.yaml" <<'EOF'
+cat >"$WORK/once.yaml" <<EOF
 name: once
 lcm_url: "memq://"
 hosts:
   - name: pc
+    hostname: $HOSTNAME_HERE
     processes:
       - {name: one, command: /bin/true, restart: on-failure}
       - {name: two, command: /bin/sh, args: [-c, "exit 0"], restart: "no"}
 EOF
 timeout 60 "$D" run "$WORK/once.yaml" --host pc >"$WORK/once.out" 2>&1 || fail "run once: $(cat "$WORK/once.out")"
 grep -q 'every process has ended' "$WORK/once.out" || fail "run once: $(cat "$WORK/once.out")"
+grep -q 'warning' "$WORK/once.out" && fail "run once: a warning with the right hostname: $(cat "$WORK/once.out")"
 sed 's|command: /bin/true, restart: on-failure|command: /bin/false, restart: "no"|' "$WORK/once.yaml" >"$WORK/fails.yaml"
 run_to_end() {  # run_to_end NAME: ips-deploy run $WORK/NAME.yaml to its end; its status in rc
   set +e
@@ -153,6 +225,30 @@ run_to_end broken
 [ "$rc" -eq 1 ] || fail "a program that cannot run: status $rc (expected 1): $(cat "$WORK/broken.out")"
 grep -q "^\[ips-deploy\] b: cannot run $WORK/broken.sh: No such file or directory$" "$WORK/broken.out" ||
   fail "$(cat "$WORK/broken.out")"
+
+# A working_dir that is not on this machine (the example's /var/lib/ips, say): an error naming
+# the field and --working-dir, before anything starts; --working-dir DIR runs in DIR instead.
+mkdir "$WORK/trial"
+cat >"$WORK/wd.yaml" <<EOF
+name: wd
+lcm_url: "memq://"
+working_dir: $WORK/no-such-dir
+hosts:
+  - name: pc
+    processes:
+      - {name: where, command: /bin/sh, args: [-c, "pwd -P"], restart: "no"}
+EOF
+expect_error_saying "$WORK/wd.yaml: working_dir '$WORK/no-such-dir' is not a directory on this machine: create it, or give --working-dir DIR to run the processes in DIR instead" \
+  "$D" run "$WORK/wd.yaml" --host pc
+expect_error_saying "--working-dir '$WORK/nope': not a directory" "$D" run "$WORK/wd.yaml" --host pc --working-dir "$WORK/nope"
+(cd "$WORK" && timeout 60 "$D" run wd.yaml --host pc --working-dir trial >"$WORK/wd.out" 2>&1) ||
+  fail "--working-dir: $(cat "$WORK/wd.out")"
+grep -qx "\[where\] $(cd "$WORK/trial" && pwd -P)" "$WORK/wd.out" || fail "--working-dir: $(cat "$WORK/wd.out")"
+if [ ! -d /var/lib/ips ]; then
+  expect_error_saying "working_dir '/var/lib/ips' is not a directory on this machine: create it, or give --working-dir DIR" \
+    "$D" run "$ROOT/config/deploy/lab-3-hosts.yaml" --host compute --bin-dir "$BIN"
+fi
+echo "run: working_dir missing said, --working-dir runs in the directory given"
 
 # --- 5: nothing is left behind ---------------------------------------------------------------
 # SIGHUP (the terminal closed) stops everything as SIGTERM does; a SIGKILLed ips-deploy takes its

@@ -1,14 +1,18 @@
 // ips-deploy's pure parts (tools/deploy/): the deployment file and its errors, command and
-// environment resolution, the systemd units, the restart back-off and policy, and the status
-// table from HEALTH. The expected values are docs/deployment.md's: its field tables, its error
+// environment resolution, the systemd units (for systemd >= 254 and for 252), the restart
+// back-off and policy, the run file, and the status table from HEALTH. The expected values are docs/deployment.md's: its field tables, its error
 // lines, its uwb-twr unit and its back-off table.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <sys/wait.h>
+#include <unistd.h>
 #include <yaml-cpp/yaml.h>
 
 #include <ips/health_t.hpp>
+#include <filesystem>
+#include <fstream>
 #include <map>
+#include <set>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -16,6 +20,7 @@
 #include "core/time.hpp"
 #include "core/yaml_fields.hpp"
 #include "tools/deploy/deployment.hpp"
+#include "tools/deploy/run_file.hpp"
 #include "tools/deploy/status.hpp"
 #include "tools/deploy/supervisor.hpp"
 #include "tools/deploy/systemd_units.hpp"
@@ -549,13 +554,14 @@ hosts:
     processes: [{name: view, command: ips-view}]
 )";
 
-std::map<std::string, std::string> compute_units(const Deployment& d) {
+std::map<std::string, std::string> compute_units(const Deployment& d, int systemd_version = 254) {
   const Host* h = d.host("compute");
   EXPECT_NE(h, nullptr);
   return systemd_units(d, *h,
                        {{"uwb-twr", "/usr/local/lib/ips-fusion/bin/ips-uwb-twr"},
                         {"fuse", "/usr/local/lib/ips-fusion/bin/ips-fuse"},
-                        {"logger", "lcm-logger"}});
+                        {"logger", "lcm-logger"}},
+                       systemd_version);
 }
 
 TEST(SystemdUnits, OneServicePerProcessOfTheHostAndATarget) {
@@ -571,8 +577,8 @@ TEST(SystemdUnits, OneServicePerProcessOfTheHostAndATarget) {
 TEST(SystemdUnits, UwbTwrServiceIsTheDocumentedOne) {
   // docs/deployment.md's unit for uwb-twr of config/deploy/lab-3-hosts.yaml, line for line.
   const std::string expected =
-      "# Written by ips-deploy from the deployment 'lab', host 'compute'. Regenerate rather than "
-      "edit.\n"
+      "# Written by ips-deploy from the deployment 'lab', host 'compute', for systemd 254. "
+      "Regenerate rather than edit.\n"
       "[Unit]\n"
       "Description=ips-fusion lab: uwb-twr on compute\n"
       "Wants=network-online.target\n"
@@ -589,7 +595,7 @@ TEST(SystemdUnits, UwbTwrServiceIsTheDocumentedOne) {
       "User=ips\n"
       "Restart=on-failure\n"
       "RestartSec=1s\n"
-      "# Exponential back-off (systemd >= 254; older versions ignore these two lines).\n"
+      "# Exponential back-off (systemd >= 254).\n"
       "RestartSteps=5\n"
       "RestartMaxDelaySec=30s\n"
       "KillSignal=SIGINT\n"
@@ -634,7 +640,7 @@ TEST(SystemdUnits, RestartStepsAreTheDoublingsFromInitialToMax) {
         "      - {name: p, command: ips-sim, restart_backoff: " +
         backoff + "}\n");
     const std::string unit =
-        systemd_units(d, d.hosts[0], {{"p", "/bin/ips-sim"}}).at("ips-lab-p.service");
+        systemd_units(d, d.hosts[0], {{"p", "/bin/ips-sim"}}, 254).at("ips-lab-p.service");
     const size_t at = unit.find("RestartSteps=");
     if (at == std::string::npos) return std::string("none");
     return unit.substr(at, unit.find('\n', at) - at);
@@ -653,7 +659,8 @@ hosts:
   - name: a
     processes: [{name: p, command: ips-sim}]
 )");
-  const std::string unit = systemd_units(d, d.hosts[0], {{"p", "ips-sim"}}).at("ips-lab-p.service");
+  const std::string unit =
+      systemd_units(d, d.hosts[0], {{"p", "ips-sim"}}, 254).at("ips-lab-p.service");
   EXPECT_THAT(unit, Not(HasSubstr("User=")));
   EXPECT_THAT(unit, Not(HasSubstr("WorkingDirectory=")));
   // Nothing but LCM_DEFAULT_URL in the environment.
@@ -664,7 +671,7 @@ hosts:
 TEST(SystemdUnits, TargetWantsEveryServiceOfTheHostInStartOrder) {
   const std::string target = compute_units(parse(kComputeHost)).at("ips-lab.target");
   EXPECT_EQ(target,
-            "# Written by ips-deploy from the deployment 'lab', host 'compute'.\n"
+            "# Written by ips-deploy from the deployment 'lab', host 'compute', for systemd 254.\n"
             "[Unit]\n"
             "Description=ips-fusion lab on compute\n"
             "Wants=ips-lab-uwb-twr.service ips-lab-fuse.service ips-lab-logger.service\n"
@@ -673,6 +680,143 @@ TEST(SystemdUnits, TargetWantsEveryServiceOfTheHostInStartOrder) {
             "WantedBy=multi-user.target\n");
   // The other host's process is not in it.
   EXPECT_THAT(target, Not(HasSubstr("view")));
+}
+
+TEST(SystemdVersion, FirstLineOfSystemctlVersion) {
+  EXPECT_EQ(parse_systemctl_version("systemd 252 (252.38-1~deb12u1)\n"), 252);
+  EXPECT_EQ(parse_systemctl_version("systemd 256 (256.7-1)"), 256);
+  EXPECT_EQ(parse_systemctl_version("systemd 254"), 254);
+  EXPECT_EQ(parse_systemctl_version(""), 0);
+  EXPECT_EQ(parse_systemctl_version("sh: 1: systemctl: not found\n"), 0);
+  EXPECT_EQ(parse_systemctl_version("systemd abc"), 0);
+  EXPECT_EQ(parse_systemctl_version("systemd 25x"), 0);
+  EXPECT_EQ(parse_systemctl_version("systemd 99999999999999999999"), 0);
+}
+
+TEST(SystemdUnits, AtAndAbove254EveryUnitNeverGivesUpAndThereIsNoRetryUnit) {
+  for (int version : {254, 256}) {
+    std::vector<std::string> names;
+    for (const auto& [name, text] : compute_units(parse(kComputeHost), version)) {
+      names.push_back(name);
+      EXPECT_THAT(text, Not(HasSubstr("StartLimitBurst"))) << name;
+      EXPECT_THAT(text, Not(HasSubstr("OnFailure"))) << name;
+    }
+    EXPECT_THAT(names, ElementsAre("ips-lab-fuse.service", "ips-lab-logger.service",
+                                   "ips-lab-uwb-twr.service", "ips-lab.target"));
+  }
+}
+
+TEST(SystemdUnits, Below254UwbTwrServiceIsTheDocumentedOne) {
+  // docs/deployment.md's unit for uwb-twr on systemd 252 (Debian 12), line for line: no key
+  // that systemd 252 does not know, a start limit instead of the growing delay, and the retry.
+  const std::string expected =
+      "# Written by ips-deploy from the deployment 'lab', host 'compute', for systemd 252. "
+      "Regenerate rather than edit.\n"
+      "[Unit]\n"
+      "Description=ips-fusion lab: uwb-twr on compute\n"
+      "Wants=network-online.target\n"
+      "After=network-online.target\n"
+      "PartOf=ips-lab.target\n"
+      "# systemd 252 has no RestartSteps=/RestartMaxDelaySec= (>= 254): the delay does not\n"
+      "# grow. Instead: at most 6 starts in 61s, each 1s after the last exit; then\n"
+      "# systemd gives up and ips-lab-uwb-twr-retry.service starts it again 30s later.\n"
+      "StartLimitIntervalSec=61s\n"
+      "StartLimitBurst=6\n"
+      "OnFailure=ips-lab-uwb-twr-retry.service\n"
+      "\n"
+      "[Service]\n"
+      "Type=simple\n"
+      "ExecStart=\"/usr/local/lib/ips-fusion/bin/ips-uwb-twr\" \"--log-level\" \"info\"\n"
+      "Environment=\"LCM_DEFAULT_URL=udpm://239.255.76.67:7667?ttl=1\"\n"
+      "Environment=\"TZ=UTC\"\n"
+      "WorkingDirectory=/var/lib/ips\n"
+      "User=ips\n"
+      "Restart=on-failure\n"
+      "RestartSec=1s\n"
+      "KillSignal=SIGINT\n"
+      "TimeoutStopSec=5s\n"
+      "\n"
+      "[Install]\n"
+      "WantedBy=ips-lab.target\n";
+  const auto units = compute_units(parse(kComputeHost), 252);
+  EXPECT_EQ(units.at("ips-lab-uwb-twr.service"), expected);
+  const std::string retry =
+      "# Written by ips-deploy from the deployment 'lab', host 'compute', for systemd 252. "
+      "Regenerate rather than edit.\n"
+      "# systemd < 254 only: ips-lab-uwb-twr.service names this unit in OnFailure=, which runs "
+      "once systemd\n"
+      "# has given up restarting it (StartLimitBurst=): it starts it again 30 s later (max_s), "
+      "so that it is not\n"
+      "# left stopped for good.\n"
+      "[Unit]\n"
+      "Description=ips-fusion lab: uwb-twr on compute, started again after its restarts ran out\n"
+      "PartOf=ips-lab.target\n"
+      "\n"
+      "[Service]\n"
+      "Type=oneshot\n"
+      "TimeoutStartSec=infinity\n"
+      "ExecStart=/bin/sleep 30\n"
+      "ExecStart=/bin/systemctl reset-failed ips-lab-uwb-twr.service\n"
+      "ExecStart=/bin/systemctl start --no-block ips-lab-uwb-twr.service\n";
+  EXPECT_EQ(units.at("ips-lab-uwb-twr-retry.service"), retry);
+  // Only uwb-twr has a growing back-off and a restart policy: fuse's is fixed (2 s), logger's
+  // policy is no. Neither gets a start limit (systemd never gives up on fuse) nor a retry.
+  std::vector<std::string> names;
+  for (const auto& [name, text] : units) {
+    names.push_back(name);
+    // The keys (the comment names them).
+    EXPECT_THAT(text, Not(HasSubstr("\nRestartSteps="))) << name;
+    EXPECT_THAT(text, Not(HasSubstr("\nRestartMaxDelaySec="))) << name;
+  }
+  EXPECT_THAT(names, ElementsAre("ips-lab-fuse.service", "ips-lab-logger.service",
+                                 "ips-lab-uwb-twr-retry.service", "ips-lab-uwb-twr.service",
+                                 "ips-lab.target"));
+  for (const char* name : {"ips-lab-fuse.service", "ips-lab-logger.service"}) {
+    EXPECT_THAT(units.at(name), HasSubstr("\nStartLimitIntervalSec=0\n")) << name;
+    EXPECT_THAT(units.at(name), Not(HasSubstr("OnFailure="))) << name;
+  }
+  // The target wants the services, not the retries (OnFailure= starts those).
+  EXPECT_THAT(units.at("ips-lab.target"),
+              HasSubstr("\nWants=ips-lab-uwb-twr.service ips-lab-fuse.service "
+                        "ips-lab-logger.service\n"));
+}
+
+TEST(SystemdUnits, Below254StartLimitIsTheExponentialBackoffsStartsAndTheirTime) {
+  // burst: the starts the back-off makes before its delay reaches max_s (RestartSteps + 1);
+  // interval: the time those take at the back-off's delays, plus max_s.
+  const auto limit = [](double initial, double max) {
+    Backoff b;
+    b.initial_s = initial;
+    b.max_s = max;
+    const StartLimit l = start_limit(b);
+    return std::to_string(l.burst) + " in " + std::to_string(static_cast<int>(l.interval_s));
+  };
+  EXPECT_EQ(limit(1, 30), "6 in 61");    // 1+2+4+8+16 + 30
+  EXPECT_EQ(limit(1, 32), "6 in 63");    // 1+2+4+8+16 + 32
+  EXPECT_EQ(limit(5, 300), "7 in 615");  // the recorder's: 5+10+20+40+80+160 + 300
+  EXPECT_EQ(limit(1, 1.5), "2 in 2");    // 1 + 1.5
+  EXPECT_EQ(limit(4, 4), "0 in 0");      // a fixed delay: no limit
+}
+
+TEST(SystemdUnits, CommandsSystemdCannotFind) {
+  const Deployment d = parse(kComputeHost);
+  const std::set<std::string> programs = {"/usr/local/lib/ips-fusion/bin/ips-fuse",
+                                          "/usr/bin/lcm-logger"};
+  const auto is_program = [&](const std::string& p) { return programs.count(p) > 0; };
+  // uwb-twr's path is not a program; fuse's is; lcm-logger is found in systemd's search path.
+  EXPECT_THAT(commands_systemd_cannot_find(d.hosts[0],
+                                           {{"uwb-twr", "/usr/local/lib/ips-fusion/bin/ips-uwb-twr"},
+                                            {"fuse", "/usr/local/lib/ips-fusion/bin/ips-fuse"},
+                                            {"logger", "lcm-logger"}},
+                                           is_program),
+              ElementsAre("uwb-twr: /usr/local/lib/ips-fusion/bin/ips-uwb-twr"));
+  // A bare name that is in none of its directories (bin_dir did not have it either).
+  EXPECT_THAT(commands_systemd_cannot_find(d.hosts[0],
+                                           {{"uwb-twr", "ips-uwb-twr"},
+                                            {"fuse", "ips-fuse"},
+                                            {"logger", "lcm-logger"}},
+                                           is_program),
+              ElementsAre("uwb-twr: ips-uwb-twr", "fuse: ips-fuse"));
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -946,6 +1090,159 @@ TEST(CompareStatus, WithoutADeploymentListsEverythingHeard) {
   EXPECT_TRUE(r.ok());
   EXPECT_THAT(format_status(r), HasSubstr("\n0 of 0 expected processes heard\n"));
   EXPECT_THAT(format_status(compare_status(nullptr, {}, kNow)), HasSubstr("no HEALTH heard\n"));
+}
+
+// ---------------------------------------------------------------------------------------------
+// The run file, and status matching a run on this machine by pid
+
+RunRecord compute_run() {
+  RunRecord r;
+  r.deployment = "lab";
+  r.host = "b";
+  r.hostname = "laptop";  // not the file's hostname for b ("b")
+  r.supervisor_pid = 4241;
+  r.pids = {{"uwb-twr", 4242}, {"logger", 0}};
+  return r;
+}
+
+TEST(RunFile, WrittenAndReadBack) {
+  const std::string text = format_run_file(compute_run());
+  EXPECT_EQ(text,
+            "ips-deploy-run 1\n"
+            "deployment lab\n"
+            "host b\n"
+            "hostname laptop\n"
+            "supervisor 4241\n"
+            "process logger 0\n"
+            "process uwb-twr 4242\n");
+  std::string error;
+  const auto r = parse_run_file(text, error);
+  ASSERT_TRUE(r) << error;
+  EXPECT_EQ(r->deployment, "lab");
+  EXPECT_EQ(r->host, "b");
+  EXPECT_EQ(r->hostname, "laptop");
+  EXPECT_EQ(r->supervisor_pid, 4241);
+  EXPECT_EQ(r->pids, compute_run().pids);
+}
+
+TEST(RunFile, AnythingElseIsRefusedWithAReason) {
+  const auto refused = [](const std::string& text) {
+    std::string error;
+    EXPECT_FALSE(parse_run_file(text, error)) << text;
+    return error;
+  };
+  EXPECT_THAT(refused(""), HasSubstr("not a run file"));
+  EXPECT_THAT(refused("name: lab\n"), HasSubstr("not a run file"));
+  const std::string head = "ips-deploy-run 1\ndeployment lab\nhost b\nhostname x\n";
+  EXPECT_EQ(refused(head), "incomplete (deployment, host, hostname and supervisor are needed)");
+  EXPECT_EQ(refused(head + "supervisor -3\n"), "line 5: not understood: 'supervisor -3'");
+  EXPECT_EQ(refused(head + "supervisor 9999999999\n"), "line 5: not understood: 'supervisor 9999999999'");
+  EXPECT_EQ(refused(head + "supervisor 7\nprocess uwb-twr\n"),
+            "line 6: not understood: 'process uwb-twr'");
+  EXPECT_EQ(refused(head + "supervisor 7\ncolour red\n"), "line 6: not understood: 'colour red'");
+  EXPECT_EQ(refused(head + "supervisor 7\nprocess a\x1b[2J 5x\n"),
+            "line 6: not understood: 'process a\\x1b[2J 5x'");
+}
+
+TEST(RunFile, ReadingSkipsEndedRunsAndCountsUnreadableFiles) {
+  const std::string dir =
+      (std::filesystem::temp_directory_path() / ("deploy_test_runs_" + std::to_string(::getpid())))
+          .string();
+  std::filesystem::remove_all(dir);
+  RunRecord r = compute_run();
+  std::string path, error;
+  // This test is no ips-deploy: a run file with its pid is an ended run (the pid reused).
+  r.supervisor_pid = static_cast<int32_t>(::getpid());
+  ASSERT_TRUE(write_run_file(dir, r, path, error)) << error;
+  EXPECT_EQ(path, dir + "/lab-b-" + std::to_string(::getpid()) + ".run");
+  EXPECT_EQ(std::filesystem::status(dir).permissions() & std::filesystem::perms::all,
+            std::filesystem::perms::owner_all);
+  r.supervisor_pid = 0x7ffffff0;  // no such process
+  ASSERT_TRUE(write_run_file(dir, r, path, error)) << error;
+  std::ofstream(dir + "/broken.run") << "garbage\n";
+  std::ofstream(dir + "/notes.txt") << "not a run file, not looked at\n";
+  int unreadable = 0;
+  std::vector<std::string> errors;
+  EXPECT_TRUE(read_run_files(dir, "lab", unreadable, errors).empty());
+  EXPECT_EQ(unreadable, 1);
+  ASSERT_EQ(errors.size(), 1u);
+  EXPECT_THAT(errors[0], HasSubstr("broken.run: not a run file"));
+  // No directory (no run yet): nothing, no error.
+  unreadable = 0;
+  EXPECT_TRUE(read_run_files(dir + "/none", "lab", unreadable, errors).empty());
+  EXPECT_EQ(unreadable, 0);
+  std::filesystem::remove_all(dir);
+}
+
+TEST(CompareStatus, ARunOnThisMachineIsMatchedByPidWhateverTheHostname) {
+  // The file says b's hostname is "b"; its run is on "laptop" (ips-deploy run --host b there).
+  const Deployment d = parse(kStatusDeployment);
+  std::vector<Heard> v;
+  v.push_back(heard("pc-a", "ips-sim", 100, 0.5));
+  v.push_back(heard("laptop", "ips-uwb-twr", 4242, 0.3));
+  v.push_back(heard("laptop", "ips-deploy", 4241, 0.4));
+  v.push_back(heard("laptop", "ips-uwb-twr", 999, 0.1));  // started by hand: not the run's
+  v.push_back(heard("laptop", "ips-view", 998, 0.1));
+  // Without the run: b's uwb-twr is MISSING, everything from laptop under "laptop".
+  const StatusReport without = compare_status(&d, v, kNow);
+  EXPECT_EQ(without.missing, 1);
+  EXPECT_TRUE(without.notes.empty());
+
+  const StatusReport r = compare_status(&d, v, kNow, {compute_run()});
+  EXPECT_EQ(r.expected, 2);
+  EXPECT_EQ(r.missing, 0);
+  EXPECT_TRUE(r.ok());
+  std::vector<std::string> keys;
+  for (const StatusRow& row : r.rows)
+    keys.push_back(row.host + "/" + row.process + "/" + row.program + "/" + std::to_string(row.pid));
+  EXPECT_THAT(keys, ElementsAre("a/sim/ips-sim/100",
+                                // The run's pid, not the newer one started by hand.
+                                "b/uwb-twr/ips-uwb-twr/4242", "b/logger/lcm-logger/0",
+                                // ips-deploy itself: the run's own pid.
+                                "b//ips-deploy/4241",
+                                // Not the run's: under the hostname they came from.
+                                "laptop//ips-uwb-twr/999", "laptop//ips-view/998"));
+  ASSERT_EQ(r.notes.size(), 1u);
+  EXPECT_EQ(r.notes[0],
+            "host b: run on this machine by ips-deploy (pid 4241) under hostname 'laptop' (the "
+            "file says 'b'); its processes matched by pid");
+  EXPECT_THAT(format_status(r), HasSubstr("\n" + r.notes[0] + "\n\n2 of 2 expected processes heard\n"));
+  const YAML::Node json = YAML::Load(status_json(r));
+  ASSERT_EQ(json["notes"].size(), 1u);
+  EXPECT_EQ(json["notes"][0].as<std::string>(), r.notes[0]);
+  // A run of another deployment, or of a host the file does not have, is not used.
+  RunRecord other = compute_run();
+  other.deployment = "other";
+  EXPECT_EQ(compare_status(&d, v, kNow, {other}).missing, 1);
+  other = compute_run();
+  other.host = "zz";
+  EXPECT_EQ(compare_status(&d, v, kNow, {other}).missing, 1);
+}
+
+TEST(CompareStatus, TwoHostsRunOnOneMachineEachGetTheirOwnPids) {
+  // Both hosts run one ips-uwb-twr, both on "laptop": by program name alone either could take
+  // either; by the runs' pids each gets its own.
+  const Deployment d = parse(R"(name: lab
+lcm_url: "udpm://239.255.76.67:7667?ttl=1"
+hosts:
+  - name: a
+    processes: [{name: twr-a, command: ips-uwb-twr}]
+  - name: b
+    processes: [{name: twr-b, command: ips-uwb-twr}]
+)");
+  std::vector<Heard> v;
+  v.push_back(heard("laptop", "ips-uwb-twr", 20, 0.1));  // b's, the newest
+  v.push_back(heard("laptop", "ips-uwb-twr", 10, 0.5));  // a's
+  RunRecord ra{"lab", "a", "laptop", 1, {{"twr-a", 10}}};
+  RunRecord rb{"lab", "b", "laptop", 2, {{"twr-b", 20}}};
+  const StatusReport r = compare_status(&d, v, kNow, {rb, ra});
+  ASSERT_EQ(r.rows.size(), 2u);
+  EXPECT_EQ(r.rows[0].process, "twr-a");
+  EXPECT_EQ(r.rows[0].pid, 10);
+  EXPECT_EQ(r.rows[1].process, "twr-b");
+  EXPECT_EQ(r.rows[1].pid, 20);
+  EXPECT_EQ(r.notes.size(), 2u);
+  EXPECT_TRUE(r.ok());
 }
 
 }  // namespace

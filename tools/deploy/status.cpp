@@ -46,7 +46,7 @@ std::string fixed(double v, int decimals) {
 }  // namespace
 
 StatusReport compare_status(const Deployment* d, const std::vector<Heard>& heard, utime_t now,
-                            double stale_s) {
+                            const std::vector<RunRecord>& runs, double stale_s) {
   // Live processes only, newest first.
   std::vector<const Heard*> live;
   for (const Heard& h : heard)
@@ -56,7 +56,42 @@ StatusReport compare_status(const Deployment* d, const std::vector<Heard>& heard
   std::set<const Heard*> used;
   StatusReport report;
   if (d) {
+    // The runs of each host on this machine.
+    std::map<std::string, std::vector<const RunRecord*>> runs_of;
+    for (const RunRecord& r : runs)
+      if (r.deployment == d->name && d->host(r.host)) runs_of[r.host].push_back(&r);
+    const auto heard_from = [&](const std::string& hostname, int32_t pid) -> const Heard* {
+      for (const Heard* h : live)
+        if (!used.count(h) && h->health.host == hostname && h->health.pid == pid) return h;
+      return nullptr;
+    };
+    // Pass 1, every host: the pids the runs gave their processes.
+    std::map<const Process*, const Heard*> match;
+    for (const Host& host : d->hosts)
+      for (const RunRecord* r : runs_of[host.name])
+        for (const Process& p : host.processes) {
+          const auto pid = r->pids.find(p.name);
+          if (match.count(&p) || pid == r->pids.end() || pid->second <= 0) continue;
+          if (const Heard* h = heard_from(r->hostname, pid->second)) {
+            match[&p] = h;
+            used.insert(h);
+          }
+        }
     for (const Host& host : d->hosts) {
+      std::set<std::string> hostnames = {host.hostname};
+      std::set<std::pair<std::string, int32_t>> run_pids;  // (hostname, pid) of its runs
+      for (const RunRecord* r : runs_of[host.name]) {
+        hostnames.insert(r->hostname);
+        run_pids.insert({r->hostname, r->supervisor_pid});
+        for (const auto& [name, pid] : r->pids) run_pids.insert({r->hostname, pid});
+        report.notes.push_back(
+            "host " + host.name + ": run on this machine by ips-deploy (pid " +
+            std::to_string(r->supervisor_pid) + ") under hostname '" + printable(r->hostname) +
+            "'" +
+            (r->hostname == host.hostname ? ""
+                                          : " (the file says '" + printable(host.hostname) + "')") +
+            "; its processes matched by pid");
+      }
       for (const Process& p : host.processes) {
         const std::string program = base_name(p.command);
         const bool on_bus = program.rfind("ips-", 0) == 0;
@@ -69,31 +104,34 @@ StatusReport compare_status(const Deployment* d, const std::vector<Heard>& heard
           r.state = state;
           report.rows.push_back(r);
         };
-        if (!on_bus) {
+        if (!on_bus && !match.count(&p)) {
           unheard("no HEALTH");
           continue;
         }
         ++report.expected;
-        const Heard* match = nullptr;
-        for (const Heard* h : live)
-          if (!used.count(h) && h->health.host == host.hostname && h->health.source == program) {
-            match = h;
-            break;
-          }
-        if (!match) {
+        // Pass 2: by hostname and program.
+        if (!match.count(&p))
+          for (const Heard* h : live)
+            if (!used.count(h) && hostnames.count(h->health.host) && h->health.source == program) {
+              match[&p] = h;
+              used.insert(h);
+              break;
+            }
+        if (!match.count(&p)) {
           unheard("MISSING");
           ++report.missing;
           continue;
         }
-        used.insert(match);
-        StatusRow r = row_of(host.name, p.name, *match, now);
-        if (match->health.state == health_t::STATE_ERROR) ++report.in_error;
-        report.rows.push_back(r);
+        const Heard* m = match[&p];
+        if (m->health.state == health_t::STATE_ERROR) ++report.in_error;
+        report.rows.push_back(row_of(host.name, p.name, *m, now));
       }
       // Others heard on this host (ips-deploy itself, a tool run by hand).
       std::vector<const Heard*> extra;
       for (const Heard* h : live)
-        if (!used.count(h) && h->health.host == host.hostname) extra.push_back(h);
+        if (!used.count(h) && (h->health.host == host.hostname ||
+                               run_pids.count({h->health.host, h->health.pid})))
+          extra.push_back(h);
       std::sort(extra.begin(), extra.end(), [](const Heard* a, const Heard* b) {
         return std::tie(a->health.source, a->health.pid) < std::tie(b->health.source, b->health.pid);
       });
@@ -145,6 +183,8 @@ std::string format_status(const StatusReport& r) {
     s += line;
   }
   if (r.rows.empty()) s += "no HEALTH heard\n";
+  if (!r.notes.empty()) s += "\n";
+  for (const std::string& note : r.notes) s += note + "\n";
   s += "\n" + std::to_string(r.expected - r.missing) + " of " + std::to_string(r.expected) +
        " expected processes heard" +
        (r.in_error ? ", " + std::to_string(r.in_error) + " in error" : "") + "\n";
@@ -170,6 +210,8 @@ std::string status_json(const StatusReport& r) {
          ",\"seq_lost\":" + std::to_string(row.seq_lost) + ",\"last_error\":" +
          json_quote(row.last_error) + "}";
   }
+  s += "],\"notes\":[";
+  for (size_t i = 0; i < r.notes.size(); ++i) s += (i ? "," : "") + json_quote(r.notes[i]);
   return s + "]}";
 }
 

@@ -8,6 +8,7 @@
 
 #include "core/time.hpp"
 #include "tools/deploy/deployment.hpp"
+#include "tools/deploy/run_file.hpp"
 
 namespace ips::deploy {
 
@@ -37,14 +38,21 @@ struct StatusReport {
   int expected = 0;             // processes of the deployment that publish HEALTH
   int missing = 0;
   int in_error = 0;
+  // How hosts were matched other than by hostname (a run of ips-deploy on this machine).
+  std::vector<std::string> notes;
   bool ok() const { return missing == 0 && in_error == 0; }
 };
 
 // The HEALTH of every process heard (latest per host, source and pid), matched with the
 // deployment's processes (nullptr: just list what was heard). A HEALTH more than stale_s older
 // than `now` is a process that has gone (it restarted under a new pid, or stopped).
+// Matching: first by pid, for the hosts that `runs` (the run files of `ips-deploy run` on this
+// machine) say run here: the HEALTH from the run's hostname with the pid the run gave a process
+// is that process's, whatever the file's `hostname`; then by hostname (the file's, or a run's)
+// and program name. ips-deploy itself and other programs heard under a run's pids or on a host's
+// hostname are listed under that host.
 StatusReport compare_status(const Deployment* d, const std::vector<Heard>& heard, utime_t now,
-                            double stale_s = 2.5);
+                            const std::vector<RunRecord>& runs = {}, double stale_s = 2.5);
 
 // A text table, one host after another; every string from the bus made printable.
 std::string format_status(const StatusReport& r);

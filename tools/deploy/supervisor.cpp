@@ -12,6 +12,8 @@
 #include <cstdio>
 #include <thread>
 
+#include <spdlog/spdlog.h>
+
 #include "core/node.hpp"
 #include "core/text_escape.hpp"
 
@@ -164,6 +166,12 @@ pid_t Supervisor::pid_of(const std::string& name) const {
   return -1;
 }
 
+std::map<std::string, int32_t> Supervisor::pids() const {
+  std::map<std::string, int32_t> out;
+  for (const auto& c : children_) out[c->process->name] = c->pid > 0 ? c->pid : 0;
+  return out;
+}
+
 bool Supervisor::finished() const {
   return std::all_of(children_.begin(), children_.end(),
                      [](const auto& c) { return c->done; });
@@ -206,6 +214,17 @@ void Supervisor::spawn(Child& c) {
   print_("[ips-deploy] started " + p.name + " (pid " + std::to_string(pid) + "): " +
          printable(c.path) + (p.args.empty() ? "" : " ...") +
          (c.runs > 1 ? ", run " + std::to_string(c.runs) : ""));
+  if (on_pids_changed_) on_pids_changed_();
+}
+
+// HEALTH's last_error (and degraded state) without the Node's own log line on stderr: every
+// exit is printed once, by print_, as "[ips-deploy] ..." (it used to appear twice).
+void Supervisor::report_quietly(const std::string& text) {
+  const auto logger = spdlog::default_logger();
+  const auto level = logger->level();
+  logger->set_level(spdlog::level::off);
+  node_.report_error(text);
+  logger->set_level(level);
 }
 
 void Supervisor::on_output(Child& c) {
@@ -247,6 +266,7 @@ void Supervisor::reaped(Child& c, int status) {
   const double ran = std::chrono::duration<double>(Clock::now() - c.started).count();
   const bool clean = WIFEXITED(status) && WEXITSTATUS(status) == 0;
   c.pid = -1;
+  if (on_pids_changed_) on_pids_changed_();
   std::string what = p.name + " exited with " + describe_wait_status(status) + " after " +
                      format_s(ran);
   if (!stopping_ && should_restart(p.restart, clean)) {
@@ -256,7 +276,7 @@ void Supervisor::reaped(Child& c, int status) {
                                       std::chrono::duration<double>(delay));
     ++restarts_;
     ++node_.counters().drops;
-    node_.report_error(what + "; restarting in " + format_s(delay));
+    report_quietly(what + "; restarting in " + format_s(delay));
     print_("[ips-deploy] " + what + "; restarting in " + format_s(delay) + " (restart " +
            std::to_string(c.runs) + ", policy " + restart_name(p.restart) + ")");
     return;
@@ -264,7 +284,7 @@ void Supervisor::reaped(Child& c, int status) {
   c.done = true;
   if (!clean && !stopping_) {
     any_failed_ = true;
-    node_.report_error(what + "; not restarted (restart: " + restart_name(p.restart) + ")");
+    report_quietly(what + "; not restarted (restart: " + restart_name(p.restart) + ")");
   }
   if (!stopping_)
     print_("[ips-deploy] " + what + (clean ? "" : "; not restarted (restart: " +

@@ -63,6 +63,10 @@ class Supervisor {
   int64_t restarts() const { return restarts_; }
   // The pid of a process now, or -1.
   pid_t pid_of(const std::string& name) const;
+  // Every process's pid now (0: not running), for the run file (run_file.hpp).
+  std::map<std::string, int32_t> pids() const;
+  // Called after a process has started or ended (its pid changed).
+  void on_pids_changed(std::function<void()> f) { on_pids_changed_ = std::move(f); }
 
  private:
   struct Child {
@@ -83,11 +87,13 @@ class Supervisor {
   void on_output(Child& c);
   void close_output(Child& c);
   void reaped(Child& c, int status);
+  void report_quietly(const std::string& text);
 
   Node& node_;
   const Deployment& d_;
   std::vector<std::unique_ptr<Child>> children_;
   std::function<void(const std::string&)> print_;
+  std::function<void()> on_pids_changed_;
   int64_t restarts_ = 0;
   bool any_failed_ = false;
   bool stopping_ = false;
