@@ -1,6 +1,7 @@
 #include "core/site.hpp"
 
 #include <cmath>
+#include <map>
 #include <set>
 
 namespace ips {
@@ -110,6 +111,21 @@ Site parse_site_text(const std::string& yaml_text, const std::string& origin) {
 }
 
 Site load_site_file(const std::string& path) { return parse_site_text(read_text_file(path), path); }
+
+std::string missing_anchor_kind(const Site& site, const std::string& kind,
+                                const std::string& program) {
+  std::map<std::string, int> kinds;
+  for (const Anchor& a : site.anchors) {
+    if (!a.enabled) continue;
+    if (a.kind == kind) return "";
+    ++kinds[a.kind];
+  }
+  std::string has;
+  for (const auto& [k, n] : kinds) has += (has.empty() ? "" : ", ") + std::to_string(n) + " " + k;
+  return "site '" + site.name + "'" + (site.origin.empty() ? "" : " (" + site.origin + ")") +
+         " has no enabled " + kind + " anchor (" + (has.empty() ? "it has none" : "it has " + has) +
+         "): " + program + " estimates nothing until a site with them arrives";
+}
 
 site_t site_to_msg(const Site& site, utime_t utime, const std::string& source) {
   site_t m;

@@ -59,6 +59,13 @@ Site parse_site(const YamlField& root);
 Site parse_site_text(const std::string& yaml_text, const std::string& origin);
 Site load_site_file(const std::string& path);
 
+// "" when the site has an enabled anchor of `kind` (uwb, uwb_tdoa, ble_aoa); else what
+// `program` (an estimator of such anchors) has to say: "site 'lab' (config/sites/lab.yaml) has
+// no enabled ble_aoa anchor (it has 4 uwb): ips-aoa estimates nothing until a site with them
+// arrives".
+std::string missing_anchor_kind(const Site& site, const std::string& kind,
+                                const std::string& program);
+
 site_t site_to_msg(const Site& site, utime_t utime, const std::string& source);
 // Throws SiteError when the message's site_yaml does not parse.
 Site site_from_msg(const site_t& msg);

@@ -71,4 +71,16 @@ void provide_site(Node& node, std::function<void(const Site&)> on_site) {
   node.add_timer(kSiteRequestPeriodS, ask);
 }
 
+void provide_site(Node& node, const std::string& anchor_kind,
+                  std::function<void(const Site&)> on_site) {
+  provide_site(node, [&node, anchor_kind, on_site = std::move(on_site)](const Site& site) {
+    on_site(site);
+    const std::string missing = missing_anchor_kind(site, anchor_kind, node.name());
+    if (missing.empty())
+      node.end_lasting_error("site-anchor-kind");
+    else
+      node.report_lasting_error("site-anchor-kind", missing);
+  });
+}
+
 }  // namespace ips

@@ -3,6 +3,7 @@
 // the first SITE message on the bus (and any later one that differs).
 #include <functional>
 #include <ips/site_t.hpp>
+#include <string>
 
 #include "core/node.hpp"
 #include "core/site.hpp"
@@ -16,6 +17,11 @@ namespace ips {
 // text: nobody's tracks are reset by the answer), at most every kSiteAnswerPeriodS. A process
 // with --site does not answer: its file's text may differ from the bus's.
 void provide_site(Node& node, std::function<void(const Site&)> on_site);
+// The same for an estimator of anchors of `anchor_kind` (uwb, uwb_tdoa, ble_aoa): a site without
+// one enabled is said at once (a warning) and in HEALTH as a lasting error
+// (missing_anchor_kind()), until a site with them arrives.
+void provide_site(Node& node, const std::string& anchor_kind,
+                  std::function<void(const Site&)> on_site);
 
 inline constexpr double kSiteRequestPeriodS = 1.0;
 inline constexpr double kSiteAnswerPeriodS = 0.5;

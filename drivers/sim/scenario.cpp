@@ -3,6 +3,7 @@
 #include <cmath>
 #include <filesystem>
 #include <stdexcept>
+#include <vector>
 
 namespace ips::sim {
 
@@ -125,6 +126,13 @@ void replicate_walkers(Scenario& sc, int n) {
       YAML::Node t;
       t["id"] = id;
       if (tag && std::isfinite(tag->height_m)) t["height_m"] = tag->height_m;
+      // A copy waits at the start of the same path: it starts where the original does.
+      if (tag && tag->has_start()) {
+        const Eigen::Vector3d& p = tag->start_position;
+        t["start_position"] = std::vector<double>{p.x(), p.y(), p.z()};
+      }
+      if (tag && std::isfinite(tag->start_heading_rad))
+        t["start_heading_deg"] = tag->start_heading_rad * 180.0 / M_PI;
       root["tags"].push_back(t);
       sc.trajectories.push_back({id, w.path.delayed((k - 1) * spacing)});
     }

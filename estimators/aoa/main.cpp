@@ -42,7 +42,7 @@ int main(int argc, char** argv) {
     if (!method.empty())
       est.override_method(solver ? ips::aoa::AoaMethod::kPerEpoch : ips::aoa::AoaMethod::kEkf,
                           solver);
-    ips::provide_site(node, [&](const ips::Site& site) { est.set_site(site); });
+    ips::provide_site(node, "ble_aoa", [&](const ips::Site& site) { est.set_site(site); });
     // The events' own clock, carried forward by the host clock while the bus is quiet: an epoch
     // closes when its window has passed in the events' time, also for a log played back.
     ips::utime_t last_event_utime = 0, last_event_host = 0;

@@ -127,7 +127,7 @@ int main(int argc, char** argv) {
     ips::uwb_tdoa::TdoaEstimator est(
         [&](const ips::pose_t& p) { node.publish(pose_channel, p); },
         [&](const ips::clock_t& c) { node.publish(clock_channel, c); });
-    ips::provide_site(node, [&](const ips::Site& site) { est.set_site(site); });
+    ips::provide_site(node, "uwb_tdoa", [&](const ips::Site& site) { est.set_site(site); });
     node.subscribe<ips::uwb_rx_t>(
         opts.channel(ips::channel::kUwbRx),
         [&](const ips::uwb_rx_t& m, const std::string&) { est.on_rx(m); });

@@ -26,7 +26,7 @@ int main(int argc, char** argv) {
         [&](const ips::pose_t& p) { node.publish(out_channel, p); });
     // Only when the site asks for them (estimators.uwb_twr.epoch_fixes).
     est.set_epoch_sink([&](const ips::pose_t& p) { node.publish(epoch_channel, p); });
-    ips::provide_site(node, [&](const ips::Site& site) { est.set_site(site); });
+    ips::provide_site(node, "uwb", [&](const ips::Site& site) { est.set_site(site); });
     node.subscribe<ips::uwb_range_t>(
         opts.channel(ips::channel::kUwbRange),
         [&](const ips::uwb_range_t& m, const std::string&) { est.on_range(m); });

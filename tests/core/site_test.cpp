@@ -21,11 +21,16 @@ std::string error_of(const std::string& yaml) {
 TEST(Site, LoadsTheLabSiteFile) {
   Site s = load_site_file(IPS_SOURCE_DIR "/config/sites/lab.yaml");
   EXPECT_EQ(s.name, "lab");
-  ASSERT_EQ(s.anchors.size(), 4u);
+  ASSERT_EQ(s.anchors.size(), 12u);  // 4 uwb, 4 uwb_tdoa, 4 ble_aoa
   EXPECT_EQ(s.anchors[2].id, "A3");
   EXPECT_EQ(s.anchors[2].position, Eigen::Vector3d(10, 8, 2.4));
+  EXPECT_EQ(s.anchors[4].kind, "uwb_tdoa");
+  EXPECT_EQ(s.anchors[8].kind, "ble_aoa");
+  EXPECT_NEAR(s.anchors[8].orientation_rad.z(), M_PI / 2, 1e-12);
+  ASSERT_EQ(s.baro_stations.size(), 1u);
   ASSERT_EQ(s.tags.size(), 1u);
   EXPECT_DOUBLE_EQ(s.tags[0].height_m, 1.2);
+  EXPECT_TRUE(s.tags[0].has_start());
   EXPECT_DOUBLE_EQ(s.estimator_params("uwb_twr").get_double("range_sigma_m", 0), 0.10);
   EXPECT_FALSE(s.estimator_params("nothing").defined());
 }
@@ -45,11 +50,11 @@ TEST(Site, DefaultsAndOrientation) {
 TEST(Site, RoundTripsThroughSiteMessage) {
   Site s = load_site_file(IPS_SOURCE_DIR "/config/sites/lab.yaml");
   site_t m = site_to_msg(s, 123, "test");
-  EXPECT_EQ(m.num_anchors, 4);
+  EXPECT_EQ(m.num_anchors, 12);
   EXPECT_EQ(m.anchors[1].position[0], 10.0);
   EXPECT_EQ(m.num_tags, 1);
   Site back = site_from_msg(m);
-  EXPECT_EQ(back.anchors.size(), 4u);
+  EXPECT_EQ(back.anchors.size(), 12u);
   EXPECT_EQ(back.anchors[3].position, s.anchors[3].position);
   EXPECT_DOUBLE_EQ(back.estimator_params("uwb_twr").get_double("range_sigma_m", 0), 0.10);
 }
@@ -125,6 +130,31 @@ TEST(SiteErrors, UnreadableFile) {
   } catch (const ConfigError& e) {
     EXPECT_STREQ(e.what(), "/nonexistent/site.yaml: cannot read: No such file or directory");
   }
+}
+
+}  // namespace
+}  // namespace ips
+
+namespace ips {
+namespace {
+
+// An estimator of one anchor kind says at start (and in HEALTH) that its site has none.
+TEST(SiteAnchorKind, AMissingKindIsSaidWithWhatTheSiteHas) {
+  const Site lab = load_site_file(IPS_SOURCE_DIR "/config/sites/lab.yaml");
+  for (const char* kind : {"uwb", "uwb_tdoa", "ble_aoa"})
+    EXPECT_EQ(missing_anchor_kind(lab, kind, "ips-x"), "") << kind;
+  Site s = parse_site_text(
+      "name: hall\nanchors:\n  - {id: A1, position: [0, 0, 2]}\n  - {id: A2, position: [5, 0, 2]}\n"
+      "  - {id: B1, kind: ble_aoa, position: [0, 5, 2], enabled: false}\n",
+      "hall.yaml");
+  EXPECT_EQ(missing_anchor_kind(s, "ble_aoa", "ips-aoa"),
+            "site 'hall' (hall.yaml) has no enabled ble_aoa anchor (it has 2 uwb): ips-aoa "
+            "estimates nothing until a site with them arrives");
+  EXPECT_EQ(missing_anchor_kind(s, "uwb", "ips-uwb-twr"), "");
+  s.anchors.clear();
+  EXPECT_EQ(missing_anchor_kind(s, "uwb_tdoa", "ips-uwb-tdoa"),
+            "site 'hall' (hall.yaml) has no enabled uwb_tdoa anchor (it has none): ips-uwb-tdoa "
+            "estimates nothing until a site with them arrives");
 }
 
 }  // namespace

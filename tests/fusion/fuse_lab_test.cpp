@@ -5,6 +5,7 @@
 // deliver it, and every pose channel is scored against TRUTH. Issue 10's goal: the fused RMSE and
 // 95th percentile below every single estimator's.
 #include <gtest/gtest.h>
+#include <yaml-cpp/yaml.h>
 
 #include <cstdio>
 #include <map>
@@ -30,9 +31,12 @@ struct LabRun {
 // `fuse_yaml`: the site's estimators.fuse section ("" for the defaults).
 LabRun run_lab(uint64_t seed, const std::string& fuse_yaml = "") {
   sim::Scenario sc = sim::load_scenario("lab");
-  if (!fuse_yaml.empty())
-    sc.site = parse_site_text(sc.site.yaml_text + "\nestimators:\n  fuse: " + fuse_yaml + "\n",
-                              "lab+fuse");
+  if (!fuse_yaml.empty()) {
+    // The lab's site has an `estimators:` map of its own: add fuse's section to it.
+    YAML::Node root = YAML::Load(sc.site.yaml_text);
+    root["estimators"]["fuse"] = YAML::Load(fuse_yaml);
+    sc.site = parse_site_text(YAML::Dump(root), "lab+fuse");
+  }
   eval::Evaluator ev;
   FuseEstimator fuse([&](const pose_t& p) { ev.add_estimate("POSE_FUSED", p); });
   uwb_twr::TwrEstimator twr([&](const pose_t& p) { ev.add_estimate("POSE_UWB", p); });

@@ -64,7 +64,7 @@ if run 0 "$SURVEY" --log "$WORK/lab.lcm" --out "$WORK/site.yaml"; then
     ok "header comment" || fail "header: $(head -1 "$WORK/site.yaml")"
   grep -q "{id: D1, kind: uwb_tdoa, position: \[0.3, 0.3, 2.6\]}" "$WORK/site.yaml" &&
     grep -q "{id: B2, kind: ble_aoa, position: \[10.0, 4.0, 2.2\], orientation_deg: \[0, 0, 180\]}" "$WORK/site.yaml" &&
-    grep -q "{id: T1, height_m: 1.2}" "$WORK/site.yaml" && ok "other anchors and tags unchanged" ||
+    grep -q "{id: T1, height_m: 1.2, start_position: \[2.0, 1.5\], start_heading_deg: 0}" "$WORK/site.yaml" && ok "other anchors and tags unchanged" ||
     fail "other anchors or tags changed"
   [ "$(positions "$WORK/site.yaml" | awk '$1 ~ /^A/ { print $4 }' | sort -u)" = "2.4" ] &&
     ok "heights kept" || fail "heights: $(positions "$WORK/site.yaml")"

@@ -56,7 +56,7 @@ if run 0 "$SURVEY" --log "$WORK/lab.lcm" --offsets --out "$WORK/seeded.yaml"; th
   done
   grep -q "{id: A1, kind: uwb, position: \[0.0, 0.0, 2.4\]}" "$WORK/seeded.yaml" &&
     grep -q "{id: B2, kind: ble_aoa, position: \[10.0, 4.0, 2.2\], orientation_deg: \[0, 0, 180\]}" "$WORK/seeded.yaml" &&
-    grep -q "{id: T1, height_m: 1.2}" "$WORK/seeded.yaml" && ok "anchors and tags unchanged" ||
+    grep -q "{id: T1, height_m: 1.2, start_position: \[2.0, 1.5\], start_heading_deg: 0}" "$WORK/seeded.yaml" && ok "anchors and tags unchanged" ||
     fail "anchors or tags changed"
 fi
 

@@ -27,8 +27,8 @@ python3 - "$ROOT/config/scenarios/lab.yaml" "$WORK/lab-markup.yaml" "$PAYLOAD" <
 import json, sys
 text = open(sys.argv[1]).read()
 tag = json.dumps(sys.argv[3])  # a JSON string is a YAML string
-text = text.replace('    - {id: T1, height_m: 1.2}\n',
-                    '    - {id: T1, height_m: 1.2}\n    - {id: %s, height_m: 1.0}\n' % tag, 1)
+text = text.replace('start_heading_deg: 0}\n',
+                    'start_heading_deg: 0}\n    - {id: %s, height_m: 1.0}\n' % tag, 1)
 text = text.replace('trajectories:\n', 'trajectories:\n  - tag: %s\n    loop: true\n'
                     '    speed_mps: 0.8\n    height_m: 1.0\n'
                     '    waypoints: [[3.0, 3.0], [7.0, 3.0], [7.0, 5.0], [3.0, 5.0]]\n' % tag, 1)

@@ -383,9 +383,18 @@ Out event(const std::string& channel, int64_t t, const Msg& m) {
 
 constexpr int64_t kT0 = 1767225600000000;  // 2026-01-01, as the simulated logs
 
-// The lab site (four uwb anchors A1..A4 and no ble_aoa anchor) as a SITE message.
-Out lab_site_event() {
-  const Site site = load_site_file(std::string(IPS_SOURCE_DIR) + "/config/sites/lab.yaml");
+// A site of four uwb anchors A1..A4 (the lab's) and no anchor of another kind, as a SITE message.
+Out uwb_site_event() {
+  const Site site = parse_site_text(
+      "name: uwb-only\n"
+      "anchors:\n"
+      "  - {id: A1, kind: uwb, position: [0.0, 0.0, 2.4]}\n"
+      "  - {id: A2, kind: uwb, position: [10.0, 0.0, 2.4]}\n"
+      "  - {id: A3, kind: uwb, position: [10.0, 8.0, 2.4]}\n"
+      "  - {id: A4, kind: uwb, position: [0.0, 8.0, 2.4]}\n"
+      "tags:\n"
+      "  - {id: T1, height_m: 1.2}\n",
+      "uwb-only site");
   return event("SITE", kT0, site_to_msg(site, kT0, "test"));
 }
 
@@ -444,7 +453,7 @@ TEST(ReplayHostAccounts, NoSiteInTheLogIsTheReasonAndSaysWhatToDo) {
 TEST(ReplayHostAccounts, ASiteWithoutAoaAnchorsIsTheReason) {
   ReplayOptions ro;
   ro.only = {"aoa", "fuse"};
-  std::vector<Out> events{lab_site_event()};
+  std::vector<Out> events{uwb_site_event()};
   // B1 is no anchor of the lab; A1 is one, of kind uwb: the site has no ble_aoa anchor at all.
   for (int i = 0; i < 10; ++i)
     events.push_back(event("BLE_AOA", kT0 + i * 50000, aoa_event(kT0 + i * 50000, i % 2 ? "A1" : "B1")));
@@ -464,7 +473,7 @@ TEST(ReplayHostAccounts, ASiteWithoutAoaAnchorsIsTheReason) {
 TEST(ReplayHostAccounts, NanGyroIsInvalidForPdrAndIns) {
   ReplayOptions ro;
   ro.only = {"pdr", "ins"};
-  std::vector<Out> events{lab_site_event()};
+  std::vector<Out> events{uwb_site_event()};
   for (int i = 0; i < 100; ++i) {
     imu_t m{};
     m.utime = kT0 + 10000 + i * 10000;
@@ -531,7 +540,7 @@ TEST(ReplayHostAccounts, GatedOutliersAreCountedAndNamed) {
 TEST(ReplayHostAccounts, ALogWithNoInputForTheHostedEstimatorsSaysSo) {
   ReplayOptions ro;
   ro.only = {"pdr", "altitude"};
-  const HostRun r = run_host(ro, {lab_site_event()});
+  const HostRun r = run_host(ro, {uwb_site_event()});
   EXPECT_EQ(r.nothing,
             "the log holds no input for the hosted estimators (pdr: IMU, altitude: BARO): nothing "
             "estimated");
