@@ -1,6 +1,6 @@
 #pragma once
 // The command line every program shares: --lcm-url, --site, --channel KIND=NAME, --log-level,
-// --help (CLI11). The same flag means the same thing in every program.
+// --help, --version (CLI11). The same flag means the same thing in every program.
 #include <CLI/CLI.hpp>
 #include <functional>
 #include <map>
@@ -39,7 +39,8 @@ struct CommonFlags {
 
 void add_common_options(CLI::App& app, CommonOptions& opts, CommonFlags flags = {});
 
-// Parses argv; on --help prints it and returns 0 in `exit_code`; on an error prints one line
+// Parses argv; on --help prints it and returns 0 in `exit_code` (likewise --version: one line,
+// "<program> 0.1.0 (git <describe>, <build type>)", core/version.hpp); on an error prints one line
 // "<program>: error: <what>" and returns 2 in `exit_code`. Returns true when the program should
 // go on. Also applies --log-level and checks --channel syntax.
 bool parse_command_line(CLI::App& app, const CommonOptions& opts, int argc, char** argv,

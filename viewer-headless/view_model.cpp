@@ -265,6 +265,8 @@ void ViewModel::on_health(const health_t& msg, utime_t host_utime) {
     p.health.last_error.resize(options_.max_error_bytes);
   if (p.health.consistency.size() > options_.max_error_bytes)
     p.health.consistency.resize(options_.max_error_bytes);
+  if (p.health.version.size() > options_.max_error_bytes)
+    p.health.version.resize(options_.max_error_bytes);
   p.host_utime = host_utime;
 }
 
@@ -513,6 +515,8 @@ std::string ViewModel::json(utime_t now, bool with_trails) const {
     s += json_string(h.last_error) + ',';
     key(s, "consistency");
     s += json_string(h.consistency) + ',';
+    key(s, "version");
+    s += json_string(h.version) + ',';
     key(s, "uptime_s");
     s += json_number(utime_to_s(h.uptime_us)) + ',';
     key(s, "age_s");

@@ -165,7 +165,8 @@ void fields(const health_t& m, Fields& f) {
        {"queue_drops", m.queue_drops},
        {"seq_lost", m.seq_lost},
        {"recv_buf_bytes", int64_t{m.recv_buf_bytes}},
-       {"consistency", m.consistency}};
+       {"consistency", m.consistency},
+       {"version", m.version}};
 }
 
 // The parts of site_t, should one ever be published on its own.

@@ -10,6 +10,7 @@
 
 #include "core/lcm_url.hpp"
 #include "core/site_source.hpp"
+#include "core/version.hpp"
 
 #include <unistd.h>
 
@@ -108,6 +109,13 @@ TEST(Node, HealthReportsCountersAndErrors) {
   EXPECT_EQ(health[0].state, health_t::STATE_DEGRADED);
   EXPECT_EQ(health[0].last_error, "something broke");
   EXPECT_GT(health[0].pid, 0);
+  EXPECT_EQ(health[0].version, version_text());
+  // Every report carries the build, not only the first: a logger started later records it too.
+  node.publish_health();
+  node.spin_once(100);
+  ASSERT_EQ(health.size(), 2u);
+  EXPECT_EQ(health[1].version, version_text());
+  EXPECT_NE(health[1].version.find(" (git "), std::string::npos) << health[1].version;
 }
 
 TEST(Node, DegradedByAnErrorReturnsToOkAfterTheHoldButAStateSetByHandStays) {

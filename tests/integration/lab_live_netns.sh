@@ -57,6 +57,17 @@ for channel in SITE TRUTH UWB_RANGE UWB_RX BLE_AOA IMU BARO INS_MODULE POSE_UWB 
 done
 # The estimator's health_t (1 Hz, with its process name) reached the log too.
 grep -aq 'ips-uwb-twr' "$WORK/live.lcm" || fail "no HEALTH message from ips-uwb-twr in the log"
+# Each of them names the build that made it, as `ips-uwb-twr --version` does (issue 23).
+build=$("$BIN/ips-uwb-twr" --version) || fail "ips-uwb-twr --version failed"
+python3 - "$WORK/live.lcm" "${build#ips-uwb-twr }" <<'PY' || fail "HEALTH of ips-uwb-twr without its version"
+import sys
+import lcm_log, lcm_messages
+events, _, _ = lcm_log.events(sys.argv[1])
+health = [lcm_messages.health(d) for c, _, d in events if c == 'HEALTH']
+versions = [h['version'] for h in health if h['source'] == 'ips-uwb-twr']
+print(f'{len(versions)} HEALTH from ips-uwb-twr, versions {sorted(set(versions))}')
+assert versions and set(versions) == {sys.argv[2]}, f'want {sys.argv[2]!r} in each'
+PY
 
 # --- 1b: live equivalence: ips-replay of the live log regenerates POSE_UWB from the same inputs.
 # Tolerance: horizontal RMSE within 0.01 m and estimate count within 2 % of the live run (the live

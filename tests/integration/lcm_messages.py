@@ -38,11 +38,15 @@ def uwb_rx(data):
 
 def health(data):
     r = _Reader(data)
-    return dict(utime=r.take('q'), source=r.string(), host=r.string(), pid=r.take('i'),
-                state=r.take('b'), msgs_in=r.take('q'), msgs_out=r.take('q'),
-                parse_errors=r.take('q'), drops=r.take('q'), last_error=r.string(),
-                uptime_us=r.take('q'), kernel_drops=r.take('q'), queue_drops=r.take('q'),
-                seq_lost=r.take('q'), recv_buf_bytes=r.take('i'))
+    h = dict(utime=r.take('q'), source=r.string(), host=r.string(), pid=r.take('i'),
+             state=r.take('b'), msgs_in=r.take('q'), msgs_out=r.take('q'),
+             parse_errors=r.take('q'), drops=r.take('q'), last_error=r.string(),
+             uptime_us=r.take('q'), kernel_drops=r.take('q'), queue_drops=r.take('q'),
+             seq_lost=r.take('q'), recv_buf_bytes=r.take('i'))
+    # consistency (issue 22) and version (issue 23) came later: absent from older messages.
+    for name in ('consistency', 'version'):
+        h[name] = r.string() if r.i < len(r.data) else None
+    return h
 
 
 def baro(data):

@@ -423,6 +423,7 @@ TEST(ViewModel, HealthIsKeptPerSourceHostAndPid) {
   h.msgs_in = 20;
   h.state = health_t::STATE_DEGRADED;
   h.last_error = std::string(600, 'e');
+  h.version = "0.1.0 (git 98887a18c402-dirty, Release)";
   m.on_health(h, kT0 + 1'000'000);
   h.pid = 101;  // restarted: another process
   h.state = health_t::STATE_STARTING;
@@ -442,6 +443,8 @@ TEST(ViewModel, HealthIsKeptPerSourceHostAndPid) {
             std::string::npos)
       << j;
   EXPECT_NE(j.find("\"pid\":101,\"state\":\"starting\""), std::string::npos);
+  EXPECT_NE(j.find("\"version\":\"0.1.0 (git 98887a18c402-dirty, Release)\""), std::string::npos)
+      << j;
   EXPECT_NE(j.find("\"age_s\":2}"), std::string::npos) << j;  // pid 100, last seen at +1 s
   EXPECT_STREQ(health_state_name(9), "unknown");
 }

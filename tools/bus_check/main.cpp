@@ -12,6 +12,7 @@
 #include "core/cli.hpp"
 #include "core/lcm_url.hpp"
 #include "core/node.hpp"
+#include "core/version.hpp"
 
 int main(int argc, char** argv) {
   CLI::App app{"ips-bus-check: checks that LCM messages published on this machine are received "
@@ -59,6 +60,7 @@ int main(int argc, char** argv) {
     ips::health_t probe{};
     probe.utime = ips::wall_utime_now();
     probe.source = "ips-bus-check";
+    probe.version = ips::version_text();
     auto next_send = std::chrono::steady_clock::now();
     while (!received && std::chrono::steady_clock::now() < deadline) {
       if (std::chrono::steady_clock::now() >= next_send) {

@@ -69,7 +69,7 @@
       const tr = document.createElement('tr');
       tr.dataset.source = p.source;
       if (p.age_s > STALE_S) tr.className = 'stale';
-      cell(tr, p.source, 'tag').title = p.source;
+      cell(tr, p.source, 'tag').title = p.source + (p.version ? ' ' + p.version : '');
       cell(tr, p.host, 'tag').title = p.host;
       cell(tr, String(p.pid), 'num');
       cell(tr, p.age_s > STALE_S ? 'silent' : p.state, p.state);
