@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <fstream>
 #include <ips/altitude_t.hpp>
+#include <ips/health_t.hpp>
 #include <ips/pose_t.hpp>
 #include <ips/site_t.hpp>
 #include <initializer_list>
@@ -26,6 +27,7 @@
 #include "estimators/altitude/altitude_estimator.hpp"
 #include "loggers/eval/dwell_file.hpp"
 #include "loggers/eval/evaluation.hpp"
+#include "loggers/eval/health_verdict.hpp"
 #include "loggers/eval/report.hpp"
 #include "loggers/eval/time_window.hpp"
 
@@ -123,6 +125,10 @@ int main(int argc, char** argv) {
   bool json = false;
   app.add_option("LOG", log_path, "LCM log file")->required();
   app.add_flag("--json", json, "print {\"rows\": [...]} instead of a table");
+  bool health = false;
+  app.add_flag("--health", health,
+               "also give a verdict per process from the log's HEALTH messages: OK when it never "
+               "reported degraded or error (starting only at the start), else when and why");
   std::vector<double> static_point;
   app.add_option("--static-point", static_point,
                  "static-point mode: score every estimate against this known point instead of "
@@ -261,6 +267,8 @@ int main(int argc, char** argv) {
   const std::string truth_channel = opts.channel(ips::channel::kTruth);
   const std::string site_channel = opts.channel(ips::channel::kSite);
   const std::string altitude_channel = opts.channel(ips::channel::kAltitude);
+  const std::string health_channel = opts.channel(ips::channel::kHealth);
+  ips::eval::HealthVerdicts verdicts;
   // The last SITE message that decodes: the report's map, the floors.
   std::optional<ips::site_t> site;
   ips::eval::Evaluator ev;
@@ -292,6 +300,11 @@ int main(int argc, char** argv) {
     if (e->channel == site_channel) {
       ips::site_t s;
       if (ips::decode_message(s, e->data, e->size)) site = std::move(s);
+      continue;
+    }
+    if (health && e->channel == health_channel) {
+      ips::health_t h;
+      if (ips::decode_message(h, e->data, e->size)) verdicts.add(h, e->timestamp_us);
       continue;
     }
     if (e->channel == altitude_channel) {
@@ -359,6 +372,23 @@ int main(int argc, char** argv) {
     }
     std::printf("], \"%s\": %zu, \"altitudes_unmatched\": %zu", ev.dwell_mode() ? "outside_dwell" : "unmatched",
                 ev.unmatched(), ev.altitudes_unmatched());
+    if (health) {
+      std::printf(", \"processes\": [");
+      const auto& ps = verdicts.processes();
+      for (size_t i = 0; i < ps.size(); ++i) {
+        const auto& p = ps[i];
+        std::printf("%s{\"source\": %s, \"host\": %s, \"pid\": %d, \"version\": %s, "
+                    "\"verdict\": \"%s\", \"health\": %lld, \"starting\": %lld, \"ok\": %lld, "
+                    "\"degraded\": %lld, \"error\": %lld, \"first_problem\": %s, \"note\": %s}",
+                    i ? ", " : "", ips::json_quote(p.source).c_str(),
+                    ips::json_quote(p.host).c_str(), p.pid, ips::json_quote(p.version).c_str(),
+                    p.verdict(), static_cast<long long>(p.messages),
+                    static_cast<long long>(p.starting), static_cast<long long>(p.ok),
+                    static_cast<long long>(p.degraded), static_cast<long long>(p.error),
+                    ips::json_quote(p.first_problem).c_str(), ips::json_quote(p.note).c_str());
+      }
+      std::printf("], \"all_ok\": %s", verdicts.all_ok() ? "true" : "false");
+    }
     if (window) {
       // null for a bound not given (the start or the end of the log).
       auto bound = [](bool given, ips::utime_t t) {
@@ -416,6 +446,21 @@ int main(int argc, char** argv) {
                   "outside it, not scored)\n",
                   bound(from.has_value(), window_from, "the start").c_str(),
                   bound(to.has_value(), window_to, "the end").c_str(), ev.outside_window());
+    }
+    if (health) {
+      const auto& ps = verdicts.processes();
+      std::printf("%-20s %-9s %s\n", "process", "verdict", "from its HEALTH");
+      for (const auto& p : ps) std::printf("%s\n", ips::eval::verdict_line(p, log_start).c_str());
+      const auto bad = std::count_if(ps.begin(), ps.end(), [](const auto& p) {
+        return std::string(p.verdict()) != "OK";
+      });
+      if (ps.empty())
+        std::printf("(health: no HEALTH message in the log)\n");
+      else if (bad == 0)
+        std::printf("(health: %zu processes, all OK)\n", ps.size());
+      else
+        std::printf("(health: %lld of %zu processes not OK)\n", static_cast<long long>(bad),
+                    ps.size());
     }
   }
   if (!report_dir.empty()) {
