@@ -59,8 +59,8 @@ fi
 # The flags every program has through core/cli add_common_options (and CLI11's --help).
 COMMON="--help --version --lcm-url --lcm-queue --lcm-recv-buf --channel --log-level --site"
 # Programs that only some builds have: their pages may stay when they are not built (ips-bench:
-# release builds only; ips-site: until tools/CMakeLists.txt builds it).
-OPTIONAL="ips-bench ips-site"
+# where IPS_BUILD_BENCHMARKS is on, not the sanitizer build).
+OPTIONAL="ips-bench"
 
 programs=0
 flags_checked=0
