@@ -66,6 +66,26 @@ expect 2 "^ips-uwb-twr: error: --channel: unknown kind 'POSE_UBW'" \
   "$BIN/ips-uwb-twr" --channel POSE_UBW=X
 expect 2 "^ips-uwb-tdoa: error: .*nowhere.yaml" "$BIN/ips-uwb-tdoa" --site "$WORK/nowhere.yaml"
 
+# An estimator of one anchor kind given a site without any says so at start (issue 23): a warning
+# naming the site, what it has and the program, before any input; it keeps running (a site with
+# them may come). Waited for with a generous bound, then stopped with SIGINT.
+printf 'name: uwb-only\nanchors:\n  - {id: A1, position: [0, 0, 2]}\n  - {id: A2, position: [5, 0, 2]}\n' \
+  >"$WORK/uwb-only.yaml"
+for pk in ips-aoa:ble_aoa ips-uwb-tdoa:uwb_tdoa; do
+  prog=${pk%%:*} kind=${pk#*:}
+  "$BIN/$prog" --lcm-url memq:// --site "$WORK/uwb-only.yaml" >"$WORK/out" 2>"$WORK/err" &
+  pid=$!
+  want="$prog: site 'uwb-only' \(.*uwb-only.yaml\) has no enabled $kind anchor \(it has 2 uwb\): $prog estimates nothing until a site with them arrives"
+  for _ in $(seq 600); do grep -Eq "$want" "$WORK/err" && break; kill -0 "$pid" 2>/dev/null || break; sleep 0.1; done
+  kill -INT "$pid" 2>/dev/null; wait "$pid"; st=$?
+  if grep -Eq "$want" "$WORK/err" && [ "$st" -eq 0 ]; then
+    echo "ok: $prog says its site has no $kind anchor"
+  else
+    echo "FAIL: $prog on a site without $kind anchors (status $st): $(head -3 "$WORK/err")"
+    failures=$((failures + 1))
+  fi
+done
+
 for prog in ips-sim ips-uwb-twr ips-uwb-tdoa ips-uwb-survey ips-eval ips-bus-check; do
   if "$BIN/$prog" --help >"$WORK/out" 2>"$WORK/err" && grep -q -- "--log-level" "$WORK/out" &&
     [ ! -s "$WORK/err" ]; then
