@@ -166,7 +166,8 @@ void fields(const health_t& m, Fields& f) {
        {"seq_lost", m.seq_lost},
        {"recv_buf_bytes", int64_t{m.recv_buf_bytes}},
        {"consistency", m.consistency},
-       {"version", m.version}};
+       {"version", m.version},
+       {"note", m.note}};
 }
 
 // The parts of site_t, should one ever be published on its own.
