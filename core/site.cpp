@@ -28,7 +28,8 @@ YamlField Site::estimator_params(const std::string& estimator) const {
 
 Site parse_site(const YamlField& root) {
   if (!root.is_map()) root.fail("expected a site map (name, anchors, tags)");
-  root.check_keys({"name", "anchors", "baro_stations", "tags", "estimators"});
+  root.check_keys({"name", "anchors", "baro_stations", "tags", "estimators", "floors", "zones",
+                   "alerts", "plan_images"});
   Site site;
   site.origin = root.origin();
   site.name = root.get_string("name", "unnamed");
@@ -97,6 +98,7 @@ Site parse_site(const YamlField& root) {
   auto est = root["estimators"];
   if (est.defined() && !est.is_map()) est.fail("expected a map of estimator sections");
   site.estimators = est;
+  site.layout = parse_site_layout(root);
 
   YAML::Emitter out;
   out << root.node();
@@ -110,7 +112,13 @@ Site parse_site_text(const std::string& yaml_text, const std::string& origin) {
   return site;
 }
 
-Site load_site_file(const std::string& path) { return parse_site_text(read_text_file(path), path); }
+Site load_site_text(const std::string& text, const std::string& path) {
+  const YamlField root = parse_yaml_text(text, path);
+  if (!root.is_map()) return parse_site(root);  // its error
+  return parse_site_text(text + embed_plan_images(root, path), path);
+}
+
+Site load_site_file(const std::string& path) { return load_site_text(read_text_file(path), path); }
 
 std::string missing_anchor_kind(const Site& site, const std::string& kind,
                                 const std::string& program) {

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "core/site_layout.hpp"
 #include "core/time.hpp"
 #include "core/yaml_fields.hpp"
 
@@ -43,6 +44,7 @@ struct Site {
   std::vector<Anchor> anchors;
   std::vector<BaroStation> baro_stations;
   std::vector<Tag> tags;
+  SiteLayout layout;      // floors and their plans, zones, alert rules
   std::string yaml_text;  // the site as YAML, carried in site_t so logs are self-contained
   std::string origin;     // file name (or "SITE message") for error messages
   // The `estimators:` map, with its marks in the original text for error messages.
@@ -57,6 +59,9 @@ struct Site {
 // Parses a site from a YAML map (a site file's root, or a scenario's `site:`).
 Site parse_site(const YamlField& root);
 Site parse_site_text(const std::string& yaml_text, const std::string& origin);
+// A site file's text, read from `path`: the plan images it names are read (relative to it) and
+// carried in the site (embed_plan_images); errors keep the file's own line numbers.
+Site load_site_text(const std::string& text, const std::string& path);
 Site load_site_file(const std::string& path);
 
 // "" when the site has an enabled anchor of `kind` (uwb, uwb_tdoa, ble_aoa); else what

@@ -33,13 +33,11 @@ SiteOutcome SiteKeeper::offer_text(const std::string& text) {
     return reject(fmt::format("{}: {} bytes; a site file may have at most {}", origin_,
                               text.size(), kMaxSiteFileBytes));
   const bool was_rejected = !error_.empty();
-  if (site_ && text == site_->yaml_text) {
-    error_.clear();
-    return {SiteOutcome::Kind::kUnchanged, was_rejected, ""};
-  }
   Site site;
   try {
-    site = parse_site_text(text, origin_);
+    // The floor plans it names are read again too (relative to the file): a new image is a
+    // change even when the text is not.
+    site = load_site_text(text, origin_);
     check_estimator_sections(site);
   } catch (const ConfigError& e) {
     return reject(e.what());
@@ -48,6 +46,8 @@ SiteOutcome SiteKeeper::offer_text(const std::string& text) {
     return reject(origin_ + ": " + e.what());
   }
   error_.clear();
+  if (site_ && site.yaml_text == site_->yaml_text)
+    return {SiteOutcome::Kind::kUnchanged, was_rejected, ""};
   if (!site_) {
     site_ = std::move(site);
     return {SiteOutcome::Kind::kFirst, was_rejected, ""};
