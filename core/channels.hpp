@@ -38,6 +38,8 @@ inline constexpr const char* kStep = "STEP";
 inline constexpr const char* kAltitude = "ALTITUDE";
 inline constexpr const char* kClock = "CLOCK";
 inline constexpr const char* kPoseFused = "POSE_FUSED";
+inline constexpr const char* kZoneEvent = "ZONE_EVENT";  // zone_event_t, from ips-zones
+inline constexpr const char* kAlert = "ALERT";           // alert_t, from ips-zones
 
 // A channel name we accept: 1 to 63 of [A-Za-z0-9_]. LCM subscribes by regular expression and
 // limits names to 63 characters, so anything else would be matched wrongly or not sent at all.
@@ -53,6 +55,6 @@ inline bool valid_channel_name(const std::string& name) {
 inline constexpr const char* kAllKinds[] = {
     kUwbRange, kUwbRx,    kBleAoa,   kImu,     kBaro,    kInsModule, kSite,  kHealth,    kTruth,
     kPoseUwb,  kPoseTdoa, kPoseAoa,  kPosePdr, kPoseIns, kStep,      kAltitude, kClock, kPoseFused,
-    kPoseUwbModule, kSiteRequest, kUwbTdoa, kUwbTwrRaw, kPoseUwbEpoch};
+    kPoseUwbModule, kSiteRequest, kUwbTdoa, kUwbTwrRaw, kPoseUwbEpoch, kZoneEvent, kAlert};
 
 }  // namespace ips::channel
