@@ -223,8 +223,24 @@ bool Evaluator::floor_of(double height_m, int& floor) const {
   return true;
 }
 
+bool Evaluator::height_is_fixed(const std::vector<Sample>& est) {
+  size_t n = 0;
+  double z0 = 0;
+  for (const auto& e : est) {
+    if (e.planar || !std::isfinite(e.z)) continue;
+    if (n++ == 0) z0 = e.z;
+    else if (e.z != z0) return false;
+  }
+  return n >= 2;
+}
+
 void Evaluator::score(const std::string& tag, const std::vector<Sample>& est,
                       Accumulator& acc) const {
+  // A series whose z never changes (every estimate at one height, at least two of them) carries a
+  // fixed height, not an estimate of it, even without STATUS_2D (a module that reports its
+  // configured height; the simulated INS module on the lab's level walk): its vertical error is
+  // not scored either.
+  const bool fixed_height = height_is_fixed(est);
   for (const auto& e : est) {
     double x, y, z;
     if (!truth_at(tag, e.utime, x, y, z)) continue;
@@ -238,7 +254,7 @@ void Evaluator::score(const std::string& tag, const std::vector<Sample>& est,
     acc.sum_sq += eh * eh;
     // A 2D estimate's z is the site's fixed tag height, not an estimate: not scored.
     const double ev = e.z - z;
-    if (!e.planar && std::isfinite(ev)) {
+    if (!e.planar && !fixed_height && std::isfinite(ev)) {
       acc.sum_sq_v += ev * ev;
       acc.v.push_back(std::abs(ev));
     }

@@ -43,7 +43,8 @@ struct ErrorRow {
   double cep50() const { return median_h; }
   double cep95() const { return p95_h; }
   // Vertical error |dz|, over 3D estimates with a finite height (not those of a 2D estimator,
-  // STATUS_2D, whose height is the site's fixed one); NaN when none has one.
+  // STATUS_2D, whose height is the site's fixed one, nor those of a series whose z never
+  // changes: a fixed height too); NaN when none has one.
   double rmse_v = 0, mean_v = 0, median_v = 0, p95_v = 0, max_v = 0;
   size_t count_v = 0;  // estimates in the vertical statistics
 };
@@ -166,6 +167,8 @@ class Evaluator {
   struct Accumulator;
   struct AltitudeAccumulator;
   using Key = std::pair<std::string, std::string>;  // channel, tag
+  // True when the series' non-2D finite heights are all the same (at least two of them).
+  static bool height_is_fixed(const std::vector<Sample>& est);
   bool truth_at(const std::string& tag, utime_t t, double& x, double& y, double& z) const;
   void score(const std::string& tag, const std::vector<Sample>& est, Accumulator& acc) const;
   void score(const std::string& tag, const std::vector<AltitudeSample>& est,

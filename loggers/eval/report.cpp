@@ -8,18 +8,18 @@
 #include <tuple>
 #include <utility>
 
+#include "core/channel_colours.hpp"
 #include "core/svg_text.hpp"
 #include "core/text_escape.hpp"
 
 namespace ips::eval {
 namespace {
 
-// Tableau 10: distinct for the common kinds of colour blindness; past ten series the dash
-// pattern changes too, so "one colour per channel and tag" still tells every line apart.
-constexpr const char* kPalette[] = {"#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd",
-                                    "#8c564b", "#e377c2", "#7f7f7f", "#bcbd22", "#17becf"};
+// A channel's colour is the same as in ips-view (core/channel_colours); its tags take these dash
+// patterns in turn, so every channel and tag is still its own line.
 constexpr const char* kDashes[] = {"", "6 3", "2 2", "8 3 2 3"};
-constexpr size_t kPaletteSize = sizeof kPalette / sizeof kPalette[0];
+constexpr size_t kDashCount = sizeof kDashes / sizeof kDashes[0];
+constexpr double kMinBestRmse = 0.01;  // m: see kOffScaleRatio
 constexpr size_t kLabelMaxChars = 40;  // legend labels; the table shows the full names
 
 // Figure layout, px.
@@ -45,11 +45,39 @@ std::string series_label(const std::string& channel, const std::string& tag) {
   return svg::short_label(channel + " / " + tag, kLabelMaxChars);
 }
 
-std::string stroke_style(size_t i) {
-  std::string s = std::string("stroke=\"") + kPalette[i % kPaletteSize] + "\"";
-  const char* dash = kDashes[(i / kPaletteSize) % (sizeof kDashes / sizeof kDashes[0])];
-  if (*dash) s += std::string(" stroke-dasharray=\"") + dash + "\"";
+struct SeriesStyle {
+  std::string colour;
+  const char* dash;
+};
+
+// Per ReportInput::series: its channel's colour, and a dash pattern by its tag's place among the
+// channel's tags (series come sorted by channel, then tag).
+// The colour of every channel on the page.
+std::map<std::string, std::string> report_colours(const ReportInput& in) {
+  std::vector<std::string> channels;
+  for (const auto& s : in.series) channels.push_back(s.channel);
+  for (const auto& r : in.rows) channels.push_back(r.channel);
+  return channel_colours(channels);
+}
+
+std::vector<SeriesStyle> series_styles(const ReportInput& in) {
+  const auto colours = report_colours(in);
+  std::vector<SeriesStyle> styles;
+  std::map<std::string, size_t> tags_so_far;
+  for (const auto& s : in.series)
+    styles.push_back({colours.at(s.channel), kDashes[tags_so_far[s.channel]++ % kDashCount]});
+  return styles;
+}
+
+std::string stroke_style(const SeriesStyle& st) {
+  std::string s = "stroke=\"" + st.colour + "\"";
+  if (*st.dash) s += std::string(" stroke-dasharray=\"") + st.dash + "\"";
   return s;
+}
+
+// Attributes naming a figure's series, for readers of the SVG (and the tests).
+std::string series_attrs(const EstimateSeries& s) {
+  return "data-channel=\"" + xml_text(s.channel) + "\" data-tag=\"" + xml_text(s.tag) + "\"";
 }
 
 std::string points_attr(const std::vector<Point>& pts, const PlotFrame& f) {
@@ -75,6 +103,7 @@ struct LegendEntry {
   std::string label;       // already printable, not yet escaped
   std::string line_style;  // attributes of the sample line, empty for a marker entry
   std::string marker;      // SVG of a marker centred at (0, 0), used when line_style is empty
+  std::string text_class = {};  // the label's class, if any
 };
 
 
@@ -97,8 +126,10 @@ std::string axes(const PlotFrame& f, const std::vector<double>& xt, const std::v
     s += "<line x1=\"" + px(f.left) + "\" y1=\"" + px(y) + "\" x2=\"" + px(right) + "\" y2=\"" +
          px(y) + "\"/>\n";
   }
+  // data-x-scale tells a reader of the SVG how to map the tick labels' pixels back to values.
   s += "</g>\n<rect class=\"frame\" x=\"" + px(f.left) + "\" y=\"" + px(f.top) + "\" width=\"" +
-       px(f.width) + "\" height=\"" + px(f.height) + "\" fill=\"none\" stroke=\"#444\"/>\n";
+       px(f.width) + "\" height=\"" + px(f.height) + "\" fill=\"none\" stroke=\"#444\"" +
+       (f.log_x ? " data-x-scale=\"log\"" : "") + "/>\n";
   const double x_step = xt.size() > 1 ? xt[1] - xt[0] : 1;
   const double y_step = yt.size() > 1 ? yt[1] - yt[0] : 1;
   // A tick label's x (or y) attribute is exactly the pixel of its value.
@@ -106,7 +137,8 @@ std::string axes(const PlotFrame& f, const std::vector<double>& xt, const std::v
     const double x = f.to_px(v, f.y_min).x;
     s += "<line x1=\"" + px(x) + "\" y1=\"" + px(bottom) + "\" x2=\"" + px(x) + "\" y2=\"" +
          px(bottom + 5) + "\" stroke=\"#444\"/><text class=\"xtick\" x=\"" + px(x) + "\" y=\"" +
-         px(bottom + 18) + "\" text-anchor=\"middle\">" + tick_label(v, x_step) + "</text>\n";
+         px(bottom + 18) + "\" text-anchor=\"middle\">" + tick_label(v, f.log_x ? v : x_step) +
+         "</text>\n";
   }
   for (double v : yt) {
     const double y = f.to_px(f.x_min, v).y;
@@ -139,8 +171,9 @@ std::string legend(const std::vector<LegendEntry>& entries, double x, double y) 
            px(row_y) + "\" stroke-width=\"2\" " + e.line_style + "/>";
     else
       s += "<g transform=\"translate(" + px(x + 14) + "," + px(row_y) + ")\">" + e.marker + "</g>";
-    s += "<text x=\"" + px(x + 36) + "\" y=\"" + px(row_y) + "\" dy=\"0.32em\">" +
-         xml_text(e.label) + "</text>\n";
+    s += "<text" + (e.text_class.empty() ? "" : " class=\"" + e.text_class + "\"") + " x=\"" +
+         px(x + 36) + "\" y=\"" + px(row_y) + "\" dy=\"0.32em\">" + xml_text(e.label) +
+         "</text>\n";
   }
   return s + "</g>\n";
 }
@@ -218,8 +251,10 @@ std::string map_figure(const ReportInput& in, const ReportOptions& opt) {
   else if (!truth_of(in).empty())
     entries.push_back({"truth (" + printable(in.truth_channel) + ")",
                        "stroke=\"#000\" stroke-opacity=\"0.55\"", ""});
+  const auto styles = series_styles(in);
   for (size_t i = 0; i < in.series.size(); ++i)
-    entries.push_back({series_label(in.series[i].channel, in.series[i].tag), stroke_style(i), ""});
+    entries.push_back(
+        {series_label(in.series[i].channel, in.series[i].tag), stroke_style(styles[i]), ""});
 
   const double width = f.left + f.width + kLegendGap + legend_width(entries) + 8;
   const double height = canvas_height(f, entries.size());
@@ -248,8 +283,8 @@ std::string map_figure(const ReportInput& in, const ReportOptions& opt) {
     for (const auto& e : in.series[i].estimates)
       if (std::isfinite(e.x) && std::isfinite(e.y)) pts.push_back({e.x, e.y});
     pts = decimate_lttb(pts, opt.max_points_per_series);
-    s += "<polyline class=\"estimate\" " + stroke_style(i) + " points=\"" + points_attr(pts, f) +
-         "\"/>\n";
+    s += "<polyline class=\"estimate\" " + series_attrs(in.series[i]) + " " +
+         stroke_style(styles[i]) + " points=\"" + points_attr(pts, f) + "\"/>\n";
   }
   s += "</g>\n";
 
@@ -292,15 +327,17 @@ std::string map_figure(const ReportInput& in, const ReportOptions& opt) {
   return s + "</svg>";
 }
 
-std::string error_time_figure(const ReportInput& in, const ReportOptions& opt) {
+std::string error_time_figure(const ReportInput& in, const ReportOptions& opt,
+                              const ErrorScale& scale) {
   const auto [t0, t1] = time_span(in);
   std::vector<std::vector<Point>> lines;
-  double e_max = 0;
-  for (const auto& s : in.series) {
+  double e_max = 0;  // over the series drawn
+  for (size_t i = 0; i < in.series.size(); ++i) {
     std::vector<Point> pts;
-    for (const auto& e : s.estimates)
-      if (std::isfinite(e.error_h) && plausible_utime(e.utime))
-        pts.push_back({static_cast<double>(e.utime - t0) * 1e-6, e.error_h});
+    if (!scale.off_scale[i])
+      for (const auto& e : in.series[i].estimates)
+        if (std::isfinite(e.error_h) && plausible_utime(e.utime))
+          pts.push_back({static_cast<double>(e.utime - t0) * 1e-6, e.error_h});
     for (const auto& p : pts) e_max = std::max(e_max, p.y);
     lines.push_back(decimate_min_max(pts, opt.max_points_per_series));
   }
@@ -311,9 +348,20 @@ std::string error_time_figure(const ReportInput& in, const ReportOptions& opt) {
   const auto xt = nice_ticks(f.x_min, f.x_max, 8);
   const auto yt = nice_ticks(f.y_min, f.y_max, 5);
 
+  const auto styles = series_styles(in);
   std::vector<LegendEntry> entries;
-  for (size_t i = 0; i < in.series.size(); ++i)
-    entries.push_back({series_label(in.series[i].channel, in.series[i].tag), stroke_style(i), ""});
+  size_t off = 0;
+  for (size_t i = 0; i < in.series.size(); ++i) {
+    const std::string label = series_label(in.series[i].channel, in.series[i].tag);
+    if (!scale.off_scale[i]) {
+      entries.push_back({label, stroke_style(styles[i]), ""});
+      continue;
+    }
+    ++off;
+    const ErrorRow* r = find_row(in, in.series[i]);
+    entries.push_back({label + format("  off scale: RMSE %.3f m", r ? r->rmse_h : kNotMeasured),
+                       stroke_style(styles[i]) + " stroke-opacity=\"0.4\"", "", "off-scale"});
+  }
   const double width = f.left + f.width + kLegendGap + legend_width(entries) + 8;
   std::string s =
       svg::open(width, canvas_height(f, entries.size()), "Horizontal error against time");
@@ -322,25 +370,66 @@ std::string error_time_figure(const ReportInput& in, const ReportOptions& opt) {
   s += "<g class=\"errors\" clip-path=\"url(#error-time-clip)\" fill=\"none\" "
        "stroke-width=\"1.2\">\n";
   for (size_t i = 0; i < lines.size(); ++i)
-    s += "<polyline class=\"error\" " + stroke_style(i) + " points=\"" + points_attr(lines[i], f) +
-         "\"/>\n";
+    if (!scale.off_scale[i])
+      s += "<polyline class=\"error\" " + series_attrs(in.series[i]) + " " +
+           stroke_style(styles[i]) + " points=\"" + points_attr(lines[i], f) + "\"/>\n";
   s += "</g>\n";
+  if (off > 0)
+    s += "<text class=\"off-scale-note\" x=\"" + px(f.left + f.width - 6) + "\" y=\"" +
+         px(f.top + 16) + "\" text-anchor=\"end\" fill=\"#a00\">" + std::to_string(off) + " series" +
+         format(" off scale, not drawn (RMSE over %g x ", kOffScaleRatio) +
+         format("the best, %.3f m): see the legend", scale.best_rmse) + "</text>\n";
   return s + close_error_figure(in, f, entries);
 }
 
-std::string error_cdf_figure(const ReportInput& in, const ReportOptions& opt) {
+// The largest of 1, 2, 5 times a power of ten at or below v (v > 0), or with up the smallest at
+// or above it.
+double round_125(double v, bool up) {
+  const double mag = std::pow(10.0, std::floor(std::log10(v)));
+  if (up) {
+    for (double m : {1.0, 2.0, 5.0})
+      if (m * mag >= v * (1 - 1e-9)) return m * mag;
+    return 10 * mag;
+  }
+  for (double m : {5.0, 2.0, 1.0})
+    if (m * mag <= v * (1 + 1e-9)) return m * mag;
+  return mag;
+}
+
+std::string error_cdf_figure(const ReportInput& in, const ReportOptions& opt,
+                             const ErrorScale& scale) {
   std::vector<std::vector<Point>> steps;
   double e_max = 0;
+  // Log axis: from the smallest 5th percentile of any series (the few smallest errors of a
+  // series say little and would stretch the axis over empty decades; an estimator that starts
+  // at truth and drifts has a few near 0), at least 1 mm.
+  double e_low = std::numeric_limits<double>::infinity();
   for (const auto& s : in.series) {
-    steps.push_back(cdf_steps(finite_errors(s), opt.max_points_per_series));
+    std::vector<double> e = finite_errors(s);
+    if (!e.empty()) {
+      std::vector<double> sorted = e;
+      std::sort(sorted.begin(), sorted.end());
+      e_low = std::min(e_low, sorted[sorted.size() / 20]);
+    }
+    steps.push_back(cdf_steps(std::move(e), opt.max_points_per_series));
     if (!steps.back().empty()) e_max = std::max(e_max, steps.back().back().x);
   }
   PlotFrame f;
   f.left = kMarginLeft, f.top = kMarginTop, f.width = kPlotWidth, f.height = kPlotHeight;
-  f.x_max = e_max > 0 ? e_max * 1.05 : 1.0;
-  const auto xt = nice_ticks(f.x_min, f.x_max, 8);
+  std::vector<double> xt;
+  if (scale.log_cdf && e_max > 0) {
+    f.log_x = true;
+    f.x_min = round_125(std::clamp(e_low, 1e-3, e_max), false);
+    f.x_max = round_125(e_max, true);
+    if (f.x_max <= f.x_min) f.x_max = f.x_min * 10;
+    xt = log_ticks(f.x_min, f.x_max);
+  } else {
+    f.x_max = e_max > 0 ? e_max * 1.05 : 1.0;
+    xt = nice_ticks(f.x_min, f.x_max, 8);
+  }
   const std::vector<double> yt = {0, 0.2, 0.4, 0.6, 0.8, 1.0};
 
+  const auto styles = series_styles(in);
   std::vector<LegendEntry> entries;
   for (size_t i = 0; i < in.series.size(); ++i) {
     std::string label = series_label(in.series[i].channel, in.series[i].tag);
@@ -349,12 +438,13 @@ std::string error_cdf_figure(const ReportInput& in, const ReportOptions& opt) {
       label += format("  CEP50 %.3f m", r->cep50()) + format(", CEP95 %.3f m", r->cep95());
     else
       label += "  (not scored)";
-    entries.push_back({label, stroke_style(i), ""});
+    entries.push_back({label, stroke_style(styles[i]), ""});
   }
   const double width = f.left + f.width + kLegendGap + legend_width(entries) + 8;
   std::string s = svg::open(width, canvas_height(f, entries.size()),
                            "Horizontal error CDF with CEP50 and CEP95");
-  s += axes(f, xt, yt, "horizontal error (m)", "fraction of estimates", "error-cdf-clip");
+  s += axes(f, xt, yt, f.log_x ? "horizontal error (m, log scale)" : "horizontal error (m)",
+            "fraction of estimates", "error-cdf-clip");
   // CEP50 and CEP95 are where each curve crosses these lines; the dots mark them.
   for (const auto& [level, name] : {std::pair{0.5, "CEP50"}, std::pair{0.95, "CEP95"}}) {
     const double y = f.to_px(0, level).y;
@@ -365,8 +455,8 @@ std::string error_cdf_figure(const ReportInput& in, const ReportOptions& opt) {
   }
   s += "<g class=\"cdfs\" clip-path=\"url(#error-cdf-clip)\" fill=\"none\" stroke-width=\"1.5\">\n";
   for (size_t i = 0; i < steps.size(); ++i)
-    s += "<polyline class=\"cdf\" " + stroke_style(i) + " points=\"" + points_attr(steps[i], f) +
-         "\"/>\n";
+    s += "<polyline class=\"cdf\" " + series_attrs(in.series[i]) + " " + stroke_style(styles[i]) +
+         " points=\"" + points_attr(steps[i], f) + "\"/>\n";
   s += "</g>\n<g class=\"ceps\">\n";
   for (size_t i = 0; i < in.series.size(); ++i) {
     const ErrorRow* r = find_row(in, in.series[i]);
@@ -375,7 +465,7 @@ std::string error_cdf_figure(const ReportInput& in, const ReportOptions& opt) {
          {std::tuple{0.5, r->cep50(), "cep50"}, std::tuple{0.95, r->cep95(), "cep95"}}) {
       const Point q = f.to_px(v, level);
       s += std::string("<circle class=\"") + cls + "\" cx=\"" + px(q.x) + "\" cy=\"" + px(q.y) +
-           "\" r=\"3.5\" fill=\"" + kPalette[i % kPaletteSize] + "\" stroke=\"#fff\"/>\n";
+           "\" r=\"3.5\" fill=\"" + styles[i].colour + "\" stroke=\"#fff\"/>\n";
     }
   }
   s += "</g>\n";
@@ -398,12 +488,10 @@ std::string stats_table(const ReportInput& in) {
       "<table>\n<thead><tr><th></th><th>channel</th><th>tag</th><th>count</th><th>mean</th>"
       "<th>RMSE</th><th>median (CEP50)</th><th>p95 (CEP95)</th><th>max</th>"
       "<th>vertical RMSE</th><th>not scored: non-finite</th></tr></thead>\n<tbody>\n";
+  const auto colours = report_colours(in);
   for (const auto& r : in.rows) {
-    size_t colour = 0;  // the series' colour in the figures
-    for (size_t i = 0; i < in.series.size(); ++i)
-      if (in.series[i].channel == r.channel && in.series[i].tag == r.tag) colour = i;
-    s += std::string("<tr><td><span class=\"swatch\" style=\"background:") +
-         kPalette[colour % kPaletteSize] + "\"></span></td><td>" + xml_text(r.channel) +
+    s += "<tr><td><span class=\"swatch\" style=\"background:" + colours.at(r.channel) +
+         "\"></span></td><td>" + xml_text(r.channel) +
          "</td><td>" + xml_text(r.tag) + "</td><td>" + std::to_string(r.count) + "</td>";
     for (double v : {r.mean_h, r.rmse_h, r.median_h, r.p95_h, r.max_h, r.rmse_v})
       s += "<td>" + (r.count ? table_number(v) : std::string("-")) + "</td>";
@@ -467,6 +555,39 @@ std::vector<double> nice_ticks(double lo, double hi, int target) {
   for (double k = first; k * step <= hi + step * 1e-9 && ticks.size() < 100; k += 1)
     ticks.push_back(k * step);
   return ticks;
+}
+
+std::vector<double> log_ticks(double lo, double hi) {
+  if (!(lo > 0) || !std::isfinite(hi) || hi <= lo) return {};
+  const bool dense = std::log10(hi / lo) <= 4;
+  std::vector<double> ticks;
+  for (int k = static_cast<int>(std::floor(std::log10(lo))); k <= std::ceil(std::log10(hi)); ++k)
+    for (double m : {1.0, 2.0, 5.0}) {
+      if (!dense && m != 1.0) continue;
+      const double v = m * std::pow(10.0, k);
+      if (v >= lo * (1 - 1e-9) && v <= hi * (1 + 1e-9)) ticks.push_back(v);
+    }
+  return ticks;
+}
+
+ErrorScale error_scale(const ReportInput& in) {
+  ErrorScale scale;
+  scale.off_scale.assign(in.series.size(), false);
+  std::vector<double> rmse(in.series.size(), kNotMeasured);
+  double best = std::numeric_limits<double>::infinity();
+  for (size_t i = 0; i < in.series.size(); ++i) {
+    const ErrorRow* r = find_row(in, in.series[i]);
+    if (!r || r->count == 0 || !std::isfinite(r->rmse_h)) continue;
+    rmse[i] = r->rmse_h;
+    best = std::min(best, r->rmse_h);
+  }
+  if (!std::isfinite(best)) return scale;
+  scale.best_rmse = best;
+  for (size_t i = 0; i < in.series.size(); ++i) {
+    scale.off_scale[i] = rmse[i] > kOffScaleRatio * std::max(best, kMinBestRmse);
+    scale.log_cdf = scale.log_cdf || scale.off_scale[i];
+  }
+  return scale;
 }
 
 PlotFrame map_frame(const ReportInput& in) {
@@ -594,8 +715,9 @@ std::vector<Point> cdf_steps(std::vector<double> errors, size_t max_points) {
 Report build_report(const ReportInput& in, const ReportOptions& options) {
   Report r;
   r.map_svg = map_figure(in, options);
-  r.error_time_svg = error_time_figure(in, options);
-  r.error_cdf_svg = error_cdf_figure(in, options);
+  const ErrorScale scale = error_scale(in);
+  r.error_time_svg = error_time_figure(in, options, scale);
+  r.error_cdf_svg = error_cdf_figure(in, options, scale);
 
   const auto [t0, t1] = time_span(in);
   std::string h;
@@ -651,8 +773,25 @@ Report build_report(const ReportInput& in, const ReportOptions& options) {
          "where the site gives floors.</p>\n" +
          altitude_table(in);
   h += "<h2>Map</h2>\n<figure>\n" + r.map_svg + "\n</figure>\n";
-  h += "<h2>Horizontal error against time</h2>\n<figure>\n" + r.error_time_svg + "\n</figure>\n";
-  h += "<h2>Horizontal error CDF</h2>\n<figure>\n" + r.error_cdf_svg + "\n</figure>\n";
+  h += "<h2>Horizontal error against time</h2>\n";
+  std::string off;
+  for (size_t i = 0; i < in.series.size(); ++i) {
+    if (!scale.off_scale[i]) continue;
+    const ErrorRow* row = find_row(in, in.series[i]);
+    off += std::string(off.empty() ? "" : ", ") + "<code>" +
+           xml_text(in.series[i].channel + " / " + in.series[i].tag) + "</code>" +
+           format(" (RMSE %.3f m)", row ? row->rmse_h : kNotMeasured);
+  }
+  if (!off.empty())
+    h += "<p class=\"off-scale\">The error axis shows the series within " +
+         format("%g", kOffScaleRatio) + " times the best RMSE (" +
+         format("%.3f m", scale.best_rmse) + "). Off scale, not drawn: " + off + ".</p>\n";
+  h += "<figure>\n" + r.error_time_svg + "\n</figure>\n";
+  h += "<h2>Horizontal error CDF</h2>\n";
+  if (scale.log_cdf)
+    h += "<p>The error axis is logarithmic: the series are more than " +
+         format("%g", kOffScaleRatio) + " times apart in RMSE.</p>\n";
+  h += "<figure>\n" + r.error_cdf_svg + "\n</figure>\n";
   h += "</body>\n</html>\n";
   r.index_html = std::move(h);
   return r;

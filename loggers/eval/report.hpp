@@ -2,13 +2,17 @@
 // The page behind `ips-eval --report DIR`: three figures as SVG (the map with anchors, truth and
 // every estimator's track; horizontal error against time; the error CDF with CEP50/CEP95) and the
 // statistics table, as one self-contained HTML page (no script, no external asset). Pure: it
-// takes the Evaluator's numbers and returns strings; main.cpp writes the files.
+// takes the Evaluator's numbers and returns strings; main.cpp writes the files. Each channel has
+// its colour from core/channel_colours (the same as in ips-view); the tags of one channel differ
+// by their dash pattern.
 //
 // Every text that came from the log (channel names, tag and anchor ids) or the command line (the
 // log path) goes through xml_text(), so the output is well-formed XML/HTML whatever the bytes.
 // Long series are decimated to at most ReportOptions::max_points_per_series points, so a one-hour
 // 10-tag log gives a page of a few MB.
 #include <Eigen/Core>
+#include <algorithm>
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <map>
@@ -74,13 +78,16 @@ struct Point {
   double x, y;
 };
 
-// A linear data-to-pixel map onto a plot rectangle (y up in data, down in pixels).
+// A data-to-pixel map onto a plot rectangle (y up in data, down in pixels): linear, or on x
+// logarithmic (log_x, x_min > 0), where values at or below x_min are drawn at x_min.
 struct PlotFrame {
   double left = 0, top = 0, width = 1, height = 1;    // px
   double x_min = 0, x_max = 1, y_min = 0, y_max = 1;  // data
+  bool log_x = false;
   Point to_px(double x, double y) const {
-    return {left + (x - x_min) / (x_max - x_min) * width,
-            top + (y_max - y) / (y_max - y_min) * height};
+    const double fx = log_x ? std::log10(std::max(x, x_min) / x_min) / std::log10(x_max / x_min)
+                            : (x - x_min) / (x_max - x_min);
+    return {left + fx * width, top + (y_max - y) / (y_max - y_min) * height};
   }
 };
 
@@ -91,6 +98,23 @@ PlotFrame map_frame(const ReportInput& in);
 
 // Tick values at 1, 2 or 5 times a power of ten inside [lo, hi], about `target` of them.
 std::vector<double> nice_ticks(double lo, double hi, int target);
+
+// Ticks of a log axis over [lo, hi] (0 < lo < hi): 1, 2 and 5 times each power of ten inside, or
+// only the powers of ten when the axis spans more than four decades.
+std::vector<double> log_ticks(double lo, double hi);
+
+// How the error figures compare series of very different quality. A series is off scale when its
+// horizontal RMSE is more than kOffScaleRatio times the best series' (the best taken as at least
+// 1 cm, so a perfect series does not push every other one off): the error-against-time figure
+// is zoomed to the others and lists it in its legend with its RMSE instead of drawing it, and
+// the CDF's error axis is logarithmic whenever any series is off scale.
+inline constexpr double kOffScaleRatio = 5;
+struct ErrorScale {
+  std::vector<bool> off_scale;  // per ReportInput::series
+  double best_rmse = 0;         // m; 0 when nothing was scored
+  bool log_cdf = false;
+};
+ErrorScale error_scale(const ReportInput& in);
 
 // Largest-Triangle-Three-Buckets (Steinarsson 2013): at most max_points points of a polyline,
 // first and last kept, each bucket represented by the point that keeps the most area; for tracks.

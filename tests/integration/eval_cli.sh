@@ -8,7 +8,7 @@
 #     an error;
 #   - --by channel: one row per channel, counts the sums of its tags';
 #   - ALTITUDE rows in --json (count: every altitude with truth around it) and in the table;
-#   - 2D estimators (STATUS_2D) have rmse_v null / "-";
+#   - 2D estimators (STATUS_2D) and series whose z never changes have rmse_v null / "-";
 #   - --dwell: a file (epoch ms, cm, header) with one interval equals --static-point over that
 #     interval; estimates outside are counted; the same on the log without TRUTH; a file whose
 #     intervals have no length or miss the log is a warning;
@@ -57,7 +57,7 @@ for ch, ts, d in events:
         if ch == 'TRUTH':
             facts['truth'].setdefault(tag, []).append([utime, z])
         else:
-            facts['poses'].setdefault(ch, {}).setdefault(tag, []).append([utime, status])
+            facts['poses'].setdefault(ch, {}).setdefault(tag, []).append([utime, status, z])
 json.dump(facts, open(sys.argv[3], 'w'))
 PY
 
@@ -136,7 +136,7 @@ total_poses = sum(len(v) for ch in facts['poses'].values() for v in ch.values())
 total_alt = sum(len(v) for v in facts['altitudes'].values())
 inside = 0
 for r in win['rows']:
-    want = sum(1 for u, _ in facts['poses'][r['channel']][r['tag']] if lo <= u <= hi)
+    want = sum(1 for u, *_ in facts['poses'][r['channel']][r['tag']] if lo <= u <= hi)
     inside += want
     full = next(a for a in all_rows if a['channel'] == r['channel'] and a['tag'] == r['tag'])
     check(r['count'] + r['non_finite'] == want and r['count'] < full['count'],
@@ -191,23 +191,26 @@ for a in alt:
 atxt = [l.split() for l in open(f'{w}/all.txt') if l.startswith('ALTITUDE ')]
 check(len(atxt) == len(alt) and all(l[-1] == '-' for l in atxt), f'table ALTITUDE rows {atxt[:2]}')
 
-# 2D estimators: rmse_v null exactly where every pose of the row has STATUS_2D.
+# 2D estimators: rmse_v null exactly where every pose of the row has STATUS_2D, or the row's
+# other poses all have one z (a fixed height, as the sim's INS module has).
 for r in all_rows:
-    statuses = [s for _, s in facts['poses'][r['channel']][r['tag']]]
-    planar = all(s & 8 for s in statuses)
-    check((r['rmse_v'] is None) == (planar or r['count'] == 0),
-          f'{r["channel"]}/{r["tag"]}: rmse_v {r["rmse_v"]}, all 2D: {planar}')
-planar_channels = {r['channel'] for r in all_rows if r['rmse_v'] is None and r['count']}
-check(planar_channels, 'no 2D estimator in the lab log to check "-" with')
+    poses = facts['poses'][r['channel']][r['tag']]
+    planar = all(s & 8 for _, s, _ in poses)
+    heights = {z for _, s, z in poses if not s & 8 and z == z}
+    fixed = len(heights) == 1 and sum(1 for _, s, z in poses if not s & 8 and z == z) >= 2
+    check((r['rmse_v'] is None) == (planar or fixed or r['count'] == 0),
+          f'{r["channel"]}/{r["tag"]}: rmse_v {r["rmse_v"]}, all 2D: {planar}, one z: {fixed}')
+planar_rows = {(r['channel'], r['tag']) for r in all_rows if r['rmse_v'] is None and r['count']}
+check(planar_rows, 'no 2D estimator in the lab log to check "-" with')
 for l in open(f'{w}/all.txt'):
     f = l.split()
-    if f and f[0] in planar_channels and len(f) == 9 and f[2] != '0':
+    if f and (f[0], f[1]) in planar_rows and len(f) == 9 and f[2] != '0':
         check(f[8] == '-', f'table row {l.strip()}: rmse_v of a 2D estimator')
 
 # --dwell: the interval's point, as --static-point over the same window; the rest outside.
 dw, st = load('dwell.json'), load('static_window.json')
 lo, hi = st['window']['from_utime'], st['window']['to_utime']
-inside = sum(1 for ch in facts['poses'].values() for v in ch.values() for u, _ in v if lo <= u <= hi)
+inside = sum(1 for ch in facts['poses'].values() for v in ch.values() for u, *_ in v if lo <= u <= hi)
 scored = [r for r in dw['rows'] if r['count'] + r['non_finite'] > 0]
 check(scored == st['rows'], 'dwell rows differ from --static-point 5,4 over the interval')
 check(dw['outside_dwell'] == total_poses - inside, f'outside_dwell {dw["outside_dwell"]}, expected {total_poses - inside}')
@@ -219,7 +222,7 @@ if errors:
     print('\n'.join(errors))
     sys.exit(1)
 print(f'{len(all_rows)} rows, {inside} of {total_poses} poses in the window, {len(alt)} ALTITUDE rows, '
-      f'2D: {sorted(planar_channels)}')
+      f'2D: {sorted({c for c, _ in planar_rows})}')
 PY
 ); then
   ok "$out"

@@ -1,11 +1,14 @@
 #!/usr/bin/env bash
 # ips-eval --report on a real log (simulated lab, replayed): the three SVG files parse as XML; the
 # map has one anchor marker per SITE anchor, at the position ips-export reads from the log; one
-# estimator polyline per row of --json in every figure; every CDF climbs from 0 to 1 in one step
-# per scored estimate; index.html holds the same figures inline, no script and no external asset,
-# and its first table has the --json numbers (ALTITUDE has a table of its own); static-point mode;
-# a log without estimates; --json and the table unchanged by --report; an unwritable DIR gives one
-# error line and status 2.
+# estimator polyline per row of --json in the map and the CDF, in each channel's colour of
+# core/channel_colours (POSE_FUSED red, as ips-view draws it); the error-against-time figure draws
+# the rows within 5 times the best RMSE and lists the others as off scale with their RMSE; every
+# CDF climbs from 0 to 1 in one step per scored estimate, on a log axis when a row is off scale;
+# index.html holds the same figures inline, no script and no external asset, and its first table
+# has the --json numbers ("-" heights for 2D rows; ALTITUDE has a table of its own); static-point
+# mode; a log without estimates; --json and the table unchanged by --report; an unwritable DIR
+# gives one error line and status 2.
 set -euo pipefail
 BIN=$(cd "$1" && pwd)
 WORK=$(mktemp -d)
@@ -73,14 +76,37 @@ def ticks(root, cls, attr):
     # Tick labels: their x (or y) attribute is the pixel of the value they show.
     return [(float(t.text), float(t.get(attr))) for t in by_class(root, 'text', cls)]
 
-def pixel_map(tick_list):
+def pixel_map(tick_list, log=False):
     (v0, p0), (v1, p1) = tick_list[0], tick_list[-1]
+    if log:
+        return lambda p: v0 * (v1 / v0) ** ((p - p0) / (p1 - p0))
     return lambda p: v0 + (p - p0) * (v1 - v0) / (p1 - p0)
 
-# One estimator polyline per row of --json, in every figure.
+# Off scale: RMSE over 5 times the best (at least 1 cm) of the scored rows.
+scored = [r['rmse_h'] for r in rows if r['count']]
+best = min(scored) if scored else 0
+off = [r for r in rows if r['count'] and r['rmse_h'] > 5 * max(best, 0.01)]
+key = lambda r: (r['channel'], r['tag'])
+# The default channels' colours (core/channel_colours.cpp).
+COLOURS = {'TRUTH': '#000000', 'POSE_UWB': '#1f77b4', 'POSE_TDOA': '#ff7f0e', 'POSE_AOA': '#2ca02c',
+           'POSE_FUSED': '#d62728', 'POSE_INS': '#9467bd', 'POSE_PDR': '#8c564b',
+           'INS_MODULE': '#17becf', 'POSE_UWB_MODULE': '#bcbd22', 'POSE_UWB_EPOCH': '#aec7e8'}
+
+# One estimator polyline per row of --json in the map and the CDF, per row within the scale in
+# the error figure, each naming its row and in its channel's colour.
 for fig, cls in (('map', 'estimate'), ('error_time', 'error'), ('error_cdf', 'cdf')):
-    n = len(by_class(svgs[fig], 'polyline', cls))
-    check(n == len(rows), f'{fig}.svg: {n} "{cls}" polylines, --json has {len(rows)} rows')
+    want = [key(r) for r in rows if fig != 'error_time' or r not in off]
+    polys = by_class(svgs[fig], 'polyline', cls)
+    got = [(p.get('data-channel'), p.get('data-tag')) for p in polys]
+    check(got == want, f'{fig}.svg: "{cls}" polylines {got}, expected {want}')
+    for p in polys:
+        ch = p.get('data-channel')
+        check(ch not in COLOURS or p.get('stroke') == COLOURS[ch], f'{fig}.svg: {ch} drawn in {p.get("stroke")}')
+check(any(r['channel'] == 'POSE_FUSED' for r in rows), 'no POSE_FUSED row to check its colour')
+legend_off = [t.text for t in by_class(svgs['error_time'], 'text', 'off-scale')]
+want_off = [f'{r["channel"]} / {r["tag"]}  off scale: RMSE {r["rmse_h"]:.3f} m' for r in off]
+check(legend_off == want_off, f'off-scale legend {legend_off}, expected {want_off}')
+check(bool(by_class(svgs['error_time'], 'text', 'off-scale-note')) == bool(off), 'off-scale note')
 
 # The map: one marker per anchor of the log's last SITE message, with its id, where it is.
 site = [json.loads(line) for line in open(site_path)][-1]
@@ -112,6 +138,8 @@ for poly in by_class(m, 'polyline', 'estimate') + truth_lines:
 # The CDFs: from y 0 to y 1, never down, one step (two points) per scored estimate.
 c = svgs['error_cdf']
 ys = dict(ticks(c, 'ytick', 'y'))
+log_x = any(r.get('data-x-scale') == 'log' for r in by_class(c, 'rect', 'frame'))
+check(log_x == bool(off), f'cdf log axis: {log_x}, rows off scale: {[key(r) for r in off]}')
 for poly, row in zip(by_class(c, 'polyline', 'cdf'), rows):
     p = points(poly)
     check(len(p) == 2 * min(row['count'], 1000), f'cdf {row["channel"]}/{row["tag"]}: {len(p)} points for {row["count"]} estimates')
@@ -119,10 +147,10 @@ for poly, row in zip(by_class(c, 'polyline', 'cdf'), rows):
         check(abs(p[0][1] - ys[0.0]) < 0.05 and abs(p[-1][1] - ys[1.0]) < 0.05, f'cdf goes from y px {p[0][1]} to {p[-1][1]}, ticks 0: {ys[0.0]}, 1: {ys[1.0]}')
         check(all(b[1] <= a[1] + 1e-9 and b[0] >= a[0] - 1e-9 for a, b in zip(p, p[1:])), 'cdf not monotone')
         # The last step is at the largest error (pixel rounding: 0.05 px).
-        to_e = pixel_map(ticks(c, 'xtick', 'x'))
+        to_e = pixel_map(ticks(c, 'xtick', 'x'), log_x)
         check(abs(to_e(p[-1][0]) - row['max_h']) < 0.01, f'cdf ends at {to_e(p[-1][0]):.3f} m, max_h {row["max_h"]}')
 check(len(by_class(c, 'circle', 'cep50')) == sum(r['count'] > 0 for r in rows), 'one CEP50 marker per scored row')
-for poly, row in zip(by_class(svgs['error_time'], 'polyline', 'error'), rows):
+for poly, row in zip(by_class(svgs['error_time'], 'polyline', 'error'), [r for r in rows if r not in off]):
     check(len(points(poly)) == min(row['count'], 2000), f'error line: {len(points(poly))} points for {row["count"]}')
 
 # index.html: the same SVG markup inline, nothing that loads or runs, the table's numbers.
@@ -176,7 +204,9 @@ for got, row in zip(table, rows):
 if errors:
     print('\n'.join(errors))
     sys.exit(1)
-print(f'{len(rows)} rows, {len(anchors)} anchors, {len(truth_lines)} truth lines, {len(page)} bytes')
+for r in off:
+    check(f'<code>{r["channel"]} / {r["tag"]}</code> (RMSE {r["rmse_h"]:.3f} m)' in page, f'page does not list {key(r)} off scale')
+print(f'{len(rows)} rows ({len(off)} off scale: {", ".join(r["channel"] for r in off)}), {len(anchors)} anchors, {len(truth_lines)} truth lines, {len(page)} bytes')
 PY
 }
 

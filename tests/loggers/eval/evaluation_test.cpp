@@ -224,6 +224,35 @@ TEST(Evaluator, TwoDimensionalEstimatesHaveNoVerticalError) {
   EXPECT_NEAR(rows[1].rmse_v, 0.4, 1e-12);
 }
 
+TEST(Evaluator, SeriesWithAFixedHeightHasNoVerticalError) {
+  // The sim's INS module (drivers/sim/models/ins_module.cpp) on the lab's level walk keeps its
+  // start height: every pose at z 1.5 without STATUS_2D. A constant z is not an estimate.
+  Evaluator ev;
+  ev.add_truth(pose(0, "T", 0, 0, 1.5));
+  ev.add_truth(pose(1'000'000, "T", 0, 0, 1.7));
+  ev.add_estimate("INS_MODULE", pose(250'000, "T", 0.3, 0, 1.5));
+  ev.add_estimate("INS_MODULE", pose(500'000, "T", 0.3, 0, 1.5));
+  ev.add_estimate("INS_MODULE", pose(750'000, "T", 0.3, 0, 1.5));
+  // One estimate alone is not "never changes": scored (|dz| 0.1 at truth z 1.6).
+  ev.add_estimate("POSE_ONE", pose(500'000, "T", 0, 0, 1.5));
+  const auto rows = ev.rows();
+  ASSERT_EQ(rows.size(), 2u);
+  EXPECT_EQ(rows[0].channel, "INS_MODULE");
+  EXPECT_EQ(rows[0].count, 3u);
+  EXPECT_NEAR(rows[0].rmse_h, 0.3, 1e-12);
+  EXPECT_EQ(rows[0].count_v, 0u);
+  EXPECT_TRUE(std::isnan(rows[0].rmse_v));
+  EXPECT_EQ(rows[1].count_v, 1u);
+  EXPECT_NEAR(rows[1].rmse_v, 0.1, 1e-12);
+  // A height that moves is scored, even when it comes back to the same value.
+  Evaluator moving;
+  moving.add_truth(pose(0, "T", 0, 0, 1.5));
+  moving.add_truth(pose(1'000'000, "T", 0, 0, 1.5));
+  for (double z : {1.5, 1.6, 1.5}) moving.add_estimate("POSE_3D", pose(500'000, "T", 0, 0, z));
+  EXPECT_EQ(moving.rows().at(0).count_v, 3u);
+  EXPECT_NEAR(moving.rows().at(0).rmse_v, std::sqrt(0.01 / 3), 1e-12);
+}
+
 TEST(Evaluator, WindowScoresOnlyEstimatesInsideIt) {
   Evaluator ev;
   // Truth along x at 1 m/s for 10 s; one estimate per second, each 0.1 m * i off in y.

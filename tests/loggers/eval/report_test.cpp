@@ -16,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "core/channel_colours.hpp"
 #include "loggers/eval/evaluation.hpp"
 
 #include "tests/loggers/eval/pose_samples.hpp"
@@ -24,6 +25,7 @@ namespace ips::eval {
 namespace {
 
 using testing::kT0;
+using testing::planar_pose;
 using testing::pose;
 
 ReportInput input_from(const Evaluator& ev) {
@@ -482,6 +484,143 @@ TEST(Report, ChannelAndAltitudeTablesInNaturalOrder) {
   EXPECT_NE(h.find("<td>POSE_UWB</td><td>3</td><td>3</td><td>5.000</td><td>5.000</td>"),
             std::string::npos);
   EXPECT_NE(h.find("<td>ALTITUDE</td><td>T1</td><td>1</td><td>0.250</td><td>0.250</td>"),
+            std::string::npos);
+}
+
+// The lab's channels at the quality the issue describes: two good ones a few cm apart and one
+// 100 times worse (a drifting PDR). Every estimate of a channel has the same horizontal error.
+Evaluator one_channel_far_worse() {
+  Evaluator ev;
+  for (int i = 0; i <= 10; ++i) ev.add_truth(pose(i * 1'000'000, "T1", i, 0, 1));
+  for (int i = 0; i < 10; ++i) {
+    const utime_t t = i * 1'000'000 + 500'000;
+    const double dz = i % 2 ? 1 : -1;  // heights that move: 0.02 m and 0.03 m off
+    ev.add_estimate("POSE_FUSED", pose(t, "T1", i + 0.5, 0.05, 1 + 0.02 * dz));
+    ev.add_estimate("POSE_UWB", pose(t, "T1", i + 0.5, 0.08, 1 + 0.03 * dz));
+    ev.add_estimate("POSE_PDR", planar_pose(t, "T1", i + 0.5, 6.0, 1));
+  }
+  return ev;
+}
+
+TEST(Report, AChannelFarWorseIsListedOffScaleAndTheCdfAxisIsLogarithmic) {
+  const Evaluator ev = one_channel_far_worse();
+  const ReportInput in = input_from(ev);
+  const ErrorScale scale = error_scale(in);
+  ASSERT_EQ(in.series.size(), 3u);  // POSE_FUSED, POSE_PDR, POSE_UWB
+  EXPECT_EQ(scale.off_scale, (std::vector<bool>{false, true, false}));
+  EXPECT_NEAR(scale.best_rmse, 0.05, 1e-12);
+  EXPECT_TRUE(scale.log_cdf);
+  const Report r = build_report(in);
+  for (const auto* svg : {&r.map_svg, &r.error_time_svg, &r.error_cdf_svg})
+    expect_well_formed(*svg);
+
+  // Error against time: only the two good channels drawn, the axis zoomed to them (0.08 m *
+  // 1.05: ticks 0 to 0.08 every 0.02), POSE_PDR in the legend with its RMSE and a note.
+  const auto err = polylines(r.error_time_svg, "error");
+  ASSERT_EQ(err.size(), 2u);
+  EXPECT_EQ(r.error_time_svg.find("data-channel=\"POSE_PDR\""), std::string::npos);
+  EXPECT_NE(r.error_time_svg.find(">0.08</text>"), std::string::npos);
+  EXPECT_EQ(r.error_time_svg.find(">0.10</text>"), std::string::npos);
+  EXPECT_NE(r.error_time_svg.find("class=\"off-scale\""), std::string::npos);
+  EXPECT_NE(r.error_time_svg.find("POSE_PDR / T1  off scale: RMSE 6.000 m"), std::string::npos);
+  EXPECT_NE(r.error_time_svg.find("<text class=\"off-scale-note\""), std::string::npos);
+  EXPECT_NE(r.error_time_svg.find("1 series off scale, not drawn (RMSE over 5 x the best, "
+                                  "0.050 m)"),
+            std::string::npos);
+  EXPECT_NE(r.index_html.find("Off scale, not drawn: <code>POSE_PDR / T1</code> (RMSE 6.000 m)"),
+            std::string::npos);
+  // 0.05 m at y 0.05 / 0.084 of 320 px up from 348.
+  EXPECT_NEAR(err[0][0].y, 348 - 0.05 / 0.084 * 320, 0.051);
+
+  // The CDF: every channel, on a log axis from 0.05 m (the best 5th percentile, down to 1, 2 or
+  // 5 times a power of ten) to 10 m (6 m up likewise), ticks at 1, 2 and 5 per decade.
+  EXPECT_EQ(polylines(r.error_cdf_svg, "cdf").size(), 3u);
+  EXPECT_NE(r.error_cdf_svg.find("data-x-scale=\"log\""), std::string::npos);
+  EXPECT_NE(r.error_cdf_svg.find("horizontal error (m, log scale)"), std::string::npos);
+  EXPECT_EQ(log_ticks(0.05, 10), (std::vector<double>{0.05, 0.1, 0.2, 0.5, 1, 2, 5, 10}));
+  for (const char* label : {">0.05</text>", ">0.1</text>", ">0.2</text>", ">1</text>", ">10</text>"})
+    EXPECT_NE(r.error_cdf_svg.find(label), std::string::npos) << label;
+  // CEP50 of each channel where log10(e / 0.05) / log10(10 / 0.05) of the 640 px puts it.
+  for (double e : {0.05, 0.08, 6.0}) {
+    char want[80];
+    std::snprintf(want, sizeof want, "<circle class=\"cep50\" cx=\"%.1f\" cy=\"188.0\"",
+                  64 + std::log10(e / 0.05) / std::log10(10 / 0.05) * 640);
+    EXPECT_NE(r.error_cdf_svg.find(want), std::string::npos) << want;
+  }
+  EXPECT_NE(r.index_html.find("The error axis is logarithmic"), std::string::npos);
+
+  // Channels within 5 times of each other: nothing off scale, linear axes.
+  Evaluator close;
+  for (int i = 0; i <= 2; ++i) close.add_truth(pose(i * 1'000'000, "T1", i, 0, 1));
+  close.add_estimate("POSE_FUSED", pose(500'000, "T1", 0.5, 0.05, 1));
+  close.add_estimate("POSE_UWB", pose(500'000, "T1", 0.5, 0.24, 1));
+  const Report plain = build_report(input_from(close));
+  EXPECT_EQ(polylines(plain.error_time_svg, "error").size(), 2u);
+  EXPECT_EQ(plain.error_time_svg.find("off-scale"), std::string::npos);
+  EXPECT_EQ(plain.error_cdf_svg.find("data-x-scale"), std::string::npos);
+  EXPECT_EQ(plain.index_html.find("Off scale"), std::string::npos);
+}
+
+TEST(Report, ChannelsHaveTheirSharedColourAndTagsADashPattern) {
+  Evaluator ev = one_channel_far_worse();
+  for (int i = 0; i < 10; ++i)
+    ev.add_estimate("POSE_FUSED", pose(i * 1'000'000 + 500'000, "T2", i, 0, 1));
+  for (int i = 0; i <= 10; ++i) ev.add_truth(pose(i * 1'000'000, "T2", i, 0, 1));
+  ReportInput in = input_from(ev);
+  const Report r = build_report(in);
+  // POSE_FUSED red, POSE_UWB blue, POSE_PDR brown, as in ips-view (core/channel_colours).
+  EXPECT_EQ(channel_colour("POSE_FUSED"), "#d62728");
+  for (const auto* svg : {&r.map_svg, &r.error_cdf_svg}) {
+    EXPECT_NE(svg->find("data-channel=\"POSE_FUSED\" data-tag=\"T1\" stroke=\"#d62728\" points"),
+              std::string::npos);
+    EXPECT_NE(svg->find("data-channel=\"POSE_FUSED\" data-tag=\"T2\" stroke=\"#d62728\" "
+                        "stroke-dasharray=\"6 3\""),
+              std::string::npos);
+    EXPECT_NE(svg->find("data-channel=\"POSE_UWB\" data-tag=\"T1\" stroke=\"#1f77b4\""),
+              std::string::npos);
+    EXPECT_NE(svg->find("data-channel=\"POSE_PDR\" data-tag=\"T1\" stroke=\"#8c564b\""),
+              std::string::npos);
+  }
+  EXPECT_NE(r.error_time_svg.find("data-channel=\"POSE_UWB\" data-tag=\"T1\" stroke=\"#1f77b4\""),
+            std::string::npos);
+  EXPECT_NE(r.error_cdf_svg.find("r=\"3.5\" fill=\"#d62728\""), std::string::npos);
+  EXPECT_NE(r.index_html.find("<span class=\"swatch\" style=\"background:#d62728\"></span></td>"
+                              "<td>POSE_FUSED</td><td>T1</td>"),
+            std::string::npos);
+  EXPECT_NE(r.index_html.find("<span class=\"swatch\" style=\"background:#d62728\"></span></td>"
+                              "<td>POSE_FUSED</td><td>T2</td>"),
+            std::string::npos);
+  // Truth is TRUTH's black.
+  EXPECT_NE(r.map_svg.find("class=\"truth-tracks\" clip-path=\"url(#map-clip)\" fill=\"none\" "
+                           "stroke=\"#000\""),
+            std::string::npos);
+}
+
+TEST(Report, HeightsOfTwoDimensionalAndFixedHeightSeriesAreADash) {
+  // POSE_PDR is STATUS_2D; INS_MODULE keeps one z (a fixed height); POSE_FUSED's z moves.
+  Evaluator ev = one_channel_far_worse();
+  for (int i = 0; i < 10; ++i)
+    ev.add_estimate("INS_MODULE", pose(i * 1'000'000 + 500'000, "T1", i + 0.5, 0.1, 1.3));
+  ReportInput in = input_from(ev);
+  in.channel_rows = ev.rows_by_channel();
+  const Report r = build_report(in);
+  // The statistics table: vertical RMSE (the 10th cell) "-", then the non-finite count.
+  for (const char* channel : {"INS_MODULE", "POSE_PDR"}) {
+    const size_t row = r.index_html.find(std::string("<td>") + channel + "</td><td>T1</td>");
+    ASSERT_NE(row, std::string::npos) << channel;
+    const size_t end = r.index_html.find("</tr>", row);
+    EXPECT_NE(r.index_html.substr(row, end - row).find("<td>-</td><td>0</td>"),
+              std::string::npos)
+        << r.index_html.substr(row, end - row);
+  }
+  EXPECT_NE(r.index_html.find("<td>POSE_FUSED</td><td>T1</td><td>10</td><td>0.050</td>"
+                              "<td>0.050</td><td>0.050</td><td>0.050</td><td>0.050</td>"
+                              "<td>0.020</td><td>0</td>"),
+            std::string::npos);
+  // The per-channel table likewise.
+  const size_t ins = r.index_html.find("<td>INS_MODULE</td><td>1</td><td>10</td>");
+  ASSERT_NE(ins, std::string::npos);
+  EXPECT_NE(r.index_html.substr(ins, r.index_html.find("</tr>", ins) - ins).find("<td>-</td>"),
             std::string::npos);
 }
 
