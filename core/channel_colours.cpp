@@ -14,8 +14,9 @@ struct FixedColour {
 };
 
 // Tableau 10 for the default channel names (TRUTH black; POSE_UWB_EPOCH, the naive per-epoch
-// fixes beside the UWB tracker, the light blue of POSE_UWB's pair).
-constexpr std::array<FixedColour, 10> kFixed = {{
+// fixes beside the UWB tracker, the light blue of POSE_UWB's pair). ALTITUDE (altitude_t, not a
+// pose) has one too, for the figures that draw heights.
+constexpr std::array<FixedColour, 11> kFixed = {{
     {channel::kTruth, "#000000"},
     {channel::kPoseUwb, "#1f77b4"},
     {channel::kPoseTdoa, "#ff7f0e"},
@@ -26,12 +27,14 @@ constexpr std::array<FixedColour, 10> kFixed = {{
     {channel::kInsModule, "#17becf"},
     {channel::kPoseUwbModule, "#bcbd22"},
     {channel::kPoseUwbEpoch, "#aec7e8"},
+    {channel::kAltitude, "#e377c2"},
 }};
 
-// The two Tableau 10 colours no default channel has, then the rest of Tableau 20's light half.
-constexpr std::array<std::string_view, 10> kOthers = {"#7f7f7f", "#e377c2", "#ffbb78", "#98df8a",
-                                                      "#ff9896", "#c5b0d5", "#c49c94", "#f7b6d2",
-                                                      "#dbdb8d", "#9edae5"};
+// Tableau 10's grey, the one colour of it no default channel has, then the rest of Tableau 20's
+// light half.
+constexpr std::array<std::string_view, 9> kOthers = {"#7f7f7f", "#ffbb78", "#98df8a",
+                                                     "#ff9896", "#c5b0d5", "#c49c94",
+                                                     "#f7b6d2", "#dbdb8d", "#9edae5"};
 
 const FixedColour* fixed(std::string_view channel) {
   for (const auto& f : kFixed)

@@ -1,9 +1,9 @@
 #pragma once
 // One colour per pose channel in every program (ips-view's map and live page, ips-eval's
-// report): a fixed colour for each default channel name, TRUTH black and the estimators in
-// Tableau 10 (distinct for the common kinds of colour blindness), and for any other name a
-// colour of the lighter Tableau 20 half picked by a hash of the name. A colour depends only on
-// the channel's own name, never on which other channels are in the log or on the bus, so
+// report): a fixed colour for each default channel name (and ALTITUDE), TRUTH black and the
+// estimators in Tableau 10 (distinct for the common kinds of colour blindness), and for any other
+// name a colour of the lighter Tableau 20 half picked by a hash of the name. A colour depends only
+// on the channel's own name, never on which other channels are in the log or on the bus, so
 // POSE_FUSED is red in the viewer and in the report alike.
 #include <map>
 #include <string>

@@ -21,6 +21,7 @@ TEST(ChannelColours, DefaultChannelsHaveTheirFixedColours) {
       {channel::kPoseFused, "#d62728"},     {channel::kPoseIns, "#9467bd"},
       {channel::kPosePdr, "#8c564b"},       {channel::kInsModule, "#17becf"},
       {channel::kPoseUwbModule, "#bcbd22"}, {channel::kPoseUwbEpoch, "#aec7e8"},
+      {channel::kAltitude, "#e377c2"},
   };
   std::vector<std::string> names;
   for (const auto& [name, colour] : want) {
@@ -40,8 +41,8 @@ TEST(ChannelColours, OtherNamesKeepTheirColourWhateverElseIsThere) {
   const std::string alone = channel_colours({"POSE_UWB_TEST"}).at("POSE_UWB_TEST");
   EXPECT_EQ(alone, channel_colour("POSE_UWB_TEST"));
   // Not a default channel's colour.
-  for (const char* c : {"#000000", "#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd",
-                        "#8c564b", "#17becf", "#bcbd22", "#aec7e8"})
+  for (const char* c : {"#000000", "#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b",
+                        "#17becf", "#bcbd22", "#aec7e8", "#e377c2"})
     EXPECT_NE(alone, c);
   // The same with other channels around, before it in sorted order or after it.
   EXPECT_EQ(channel_colours({"AAA", "POSE_UWB_TEST", "POSE_FUSED"}).at("POSE_UWB_TEST"), alone);
@@ -51,9 +52,9 @@ TEST(ChannelColours, OtherNamesKeepTheirColourWhateverElseIsThere) {
 }
 
 TEST(ChannelColours, NamesThatHashAlikeStillGetDistinctColours) {
-  // Ten other names fit the ten other colours: some hash alike, all are told apart.
+  // Nine other names fit the nine other colours: some hash alike, all are told apart.
   std::vector<std::string> names;
-  for (int i = 0; i < 10; ++i) names.push_back("POSE_TEST_" + std::to_string(i));
+  for (int i = 0; i < 9; ++i) names.push_back("POSE_TEST_" + std::to_string(i));
   const auto c = channel_colours(names);
   std::set<std::string> distinct;
   size_t own = 0;
