@@ -228,8 +228,10 @@ bool Evaluator::height_is_fixed(const std::vector<Sample>& est) {
   double z0 = 0;
   for (const auto& e : est) {
     if (e.planar || !std::isfinite(e.z)) continue;
-    if (n++ == 0) z0 = e.z;
-    else if (e.z != z0) return false;
+    if (n++ == 0)
+      z0 = e.z;
+    else if (e.z != z0)
+      return false;
   }
   return n >= 2;
 }
@@ -340,14 +342,32 @@ std::vector<EstimateSeries> Evaluator::estimate_series() const {
   for (const auto& [key, est] : estimates_) {
     EstimateSeries series{key.first, key.second, {}};
     series.estimates.reserve(est.size());
+    const bool fixed_height = height_is_fixed(est);
     for (const auto& e : est) {
       double x, y, z;
       // The same error as rows(): NaN where rows() skips the estimate.
       double eh = std::numeric_limits<double>::quiet_NaN();
       if (truth_at(key.second, e.utime, x, y, z)) eh = std::hypot(e.x - x, e.y - y);
       if (!std::isfinite(eh)) eh = std::numeric_limits<double>::quiet_NaN();
-      series.estimates.push_back({e.utime, e.x, e.y, eh});
+      const double height = e.planar || fixed_height || !std::isfinite(e.z)
+                                ? std::numeric_limits<double>::quiet_NaN()
+                                : e.z;
+      series.has_height = series.has_height || std::isfinite(height);
+      series.estimates.push_back({e.utime, e.x, e.y, eh, height});
     }
+    out.push_back(std::move(series));
+  }
+  sort_rows(out);
+  return out;
+}
+
+std::vector<AltitudeSeries> Evaluator::altitude_series() const {
+  std::vector<AltitudeSeries> out;
+  out.reserve(altitudes_.size());
+  for (const auto& [key, est] : altitudes_) {
+    AltitudeSeries series{key.first, key.second, {}};
+    series.heights.reserve(est.size());
+    for (const auto& e : est) series.heights.push_back({e.utime, e.height_m});
     out.push_back(std::move(series));
   }
   sort_rows(out);

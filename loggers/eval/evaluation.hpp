@@ -87,6 +87,9 @@ struct EstimateError {
   utime_t utime;
   double x, y;     // the estimate's horizontal position, m
   double error_h;  // horizontal error to truth, m; NaN where rows() does not score it
+  // The estimate's height, m; NaN where it is not an estimate (STATUS_2D, or a series whose z
+  // never changes: the same ones rows() leaves out of the vertical error).
+  double z = std::numeric_limits<double>::quiet_NaN();
 };
 
 // Every estimate of one channel and tag, in the order they were added.
@@ -94,6 +97,18 @@ struct EstimateSeries {
   std::string channel;
   std::string tag;
   std::vector<EstimateError> estimates;
+  bool has_height = false;  // some estimate has a finite z
+};
+
+// The heights of one ALTITUDE channel and tag, in the order they were added.
+struct AltitudeSeries {
+  struct Height {
+    utime_t utime;
+    double height_m;  // may be NaN (counted as non_finite by altitude_rows())
+  };
+  std::string channel;
+  std::string tag;
+  std::vector<Height> heights;
 };
 
 // Percentile p in [0, 100] of `values` with linear interpolation between order statistics
@@ -145,6 +160,8 @@ class Evaluator {
   // Per channel and tag, in the order of rows(): every estimate with its horizontal error; the
   // finite errors of a series are exactly the ones rows() summarises.
   std::vector<EstimateSeries> estimate_series() const;
+  // Per ALTITUDE channel and tag, in the order of altitude_rows(): every height kept.
+  std::vector<AltitudeSeries> altitude_series() const;
   // The usable truth samples per tag, sorted by utime.
   const std::map<std::string, std::vector<PositionSample>>& truth_tracks() const { return truth_; }
   // The known point in static-point mode.

@@ -167,8 +167,9 @@ int main(int argc, char** argv) {
       ->type_name("U");
   std::string report_dir;
   auto* report_opt = app.add_option("--report", report_dir,
-                 "also write DIR/index.html (map, error against time, error CDF, statistics; "
-                 "self-contained) and the figures as DIR/map.svg, error_time.svg, error_cdf.svg")
+                 "also write DIR/index.html (map, error against time, error CDF, height against "
+                 "time, statistics; self-contained) and the figures as DIR/map.svg, "
+                 "error_time.svg, error_cdf.svg, height.svg")
       ->type_name("DIR");
   int rc = 0;
   if (!ips::parse_command_line(app, opts, argc, argv, rc)) return rc;
@@ -471,6 +472,7 @@ int main(int argc, char** argv) {
     if (by_channel) in.channel_rows = rows;
     in.altitude_rows = alt_rows;
     in.series = ev.estimate_series();
+    in.altitude_series = ev.altitude_series();
     in.truth = &ev.truth_tracks();
     in.static_point = ev.static_point();
     if (dwell) in.dwell = dwell->intervals;
@@ -488,6 +490,8 @@ int main(int argc, char** argv) {
                            ips::eval::svg_document(report.error_time_svg), error) ||
         !write_report_file(report_dir, "error_cdf.svg",
                            ips::eval::svg_document(report.error_cdf_svg), error) ||
+        !write_report_file(report_dir, "height.svg", ips::eval::svg_document(report.height_svg),
+                           error) ||
         !write_report_file(report_dir, "index.html", report.index_html, error)) {
       ips::print_fatal("ips-eval", error);
       return 2;

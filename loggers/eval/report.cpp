@@ -57,6 +57,7 @@ std::map<std::string, std::string> report_colours(const ReportInput& in) {
   std::vector<std::string> channels;
   for (const auto& s : in.series) channels.push_back(s.channel);
   for (const auto& r : in.rows) channels.push_back(r.channel);
+  for (const auto& a : in.altitude_series) channels.push_back(a.channel);
   return channel_colours(channels);
 }
 
@@ -172,8 +173,7 @@ std::string legend(const std::vector<LegendEntry>& entries, double x, double y) 
     else
       s += "<g transform=\"translate(" + px(x + 14) + "," + px(row_y) + ")\">" + e.marker + "</g>";
     s += "<text" + (e.text_class.empty() ? "" : " class=\"" + e.text_class + "\"") + " x=\"" +
-         px(x + 36) + "\" y=\"" + px(row_y) + "\" dy=\"0.32em\">" + xml_text(e.label) +
-         "</text>\n";
+         px(x + 36) + "\" y=\"" + px(row_y) + "\" dy=\"0.32em\">" + xml_text(e.label) + "</text>\n";
   }
   return s + "</g>\n";
 }
@@ -376,8 +376,8 @@ std::string error_time_figure(const ReportInput& in, const ReportOptions& opt,
   s += "</g>\n";
   if (off > 0)
     s += "<text class=\"off-scale-note\" x=\"" + px(f.left + f.width - 6) + "\" y=\"" +
-         px(f.top + 16) + "\" text-anchor=\"end\" fill=\"#a00\">" + std::to_string(off) + " series" +
-         format(" off scale, not drawn (RMSE over %g x ", kOffScaleRatio) +
+         px(f.top + 16) + "\" text-anchor=\"end\" fill=\"#a00\">" + std::to_string(off) +
+         " series" + format(" off scale, not drawn (RMSE over %g x ", kOffScaleRatio) +
          format("the best, %.3f m): see the legend", scale.best_rmse) + "</text>\n";
   return s + close_error_figure(in, f, entries);
 }
@@ -472,6 +472,100 @@ std::string error_cdf_figure(const ReportInput& in, const ReportOptions& opt,
   return s + close_error_figure(in, f, entries);
 }
 
+// Height against time: truth's z per tag, every pose series that estimates a height, every
+// ALTITUDE series; the series without a height (2D, or one fixed z) are named in the legend only.
+std::string height_figure(const ReportInput& in, const ReportOptions& opt) {
+  const auto [t0, t1] = time_span(in);
+  auto seconds = [t0 = t0](utime_t t) { return static_cast<double>(t - t0) * 1e-6; };
+  Bounds b;  // x: s, y: m
+  std::vector<std::vector<Point>> truth_lines, pose_lines, altitude_lines;
+  const bool known_points = in.static_point || !in.dwell.empty();
+  if (!known_points)
+    for (const auto& [tag, track] : truth_of(in)) {
+      std::vector<Point> pts;
+      for (const auto& p : track)
+        if (plausible_utime(p.utime) && std::isfinite(p.z)) pts.push_back({seconds(p.utime), p.z});
+      truth_lines.push_back(decimate_min_max(pts, opt.max_points_per_series));
+    }
+  for (const auto& s : in.series) {
+    std::vector<Point> pts;
+    for (const auto& e : s.estimates)
+      if (plausible_utime(e.utime) && std::isfinite(e.z)) pts.push_back({seconds(e.utime), e.z});
+    pose_lines.push_back(decimate_min_max(pts, opt.max_points_per_series));
+  }
+  for (const auto& a : in.altitude_series) {
+    std::vector<Point> pts;
+    for (const auto& h : a.heights)
+      if (plausible_utime(h.utime) && std::isfinite(h.height_m))
+        pts.push_back({seconds(h.utime), h.height_m});
+    altitude_lines.push_back(decimate_min_max(pts, opt.max_points_per_series));
+  }
+  for (const auto* lines : {&truth_lines, &pose_lines, &altitude_lines})
+    for (const auto& l : *lines)
+      for (const auto& p : l) b.add(0, p.y);
+  PlotFrame f;
+  f.left = kMarginLeft, f.top = kMarginTop, f.width = kPlotWidth, f.height = kPlotHeight;
+  f.x_max = std::max(1.0, static_cast<double>(t1 - t0) * 1e-6);
+  if (b.valid()) {
+    // At least 1 m tall, so a level walk is a level line and not its noise blown up to the frame.
+    const double span = b.y_max - b.y_min;
+    const double pad = std::max(0.1 * span, 0.5 * (1.0 - span));
+    f.y_min = b.y_min - pad, f.y_max = b.y_max + pad;
+  }
+  if (!(f.y_max > f.y_min)) f.y_min = 0, f.y_max = 1;
+  const auto xt = nice_ticks(f.x_min, f.x_max, 8);
+  const auto yt = nice_ticks(f.y_min, f.y_max, 5);
+
+  const auto styles = series_styles(in);
+  const auto colours = report_colours(in);
+  std::vector<LegendEntry> entries;
+  if (!truth_lines.empty())
+    entries.push_back({"truth (" + printable(in.truth_channel) + ")",
+                       "stroke=\"#000\" stroke-opacity=\"0.55\"", ""});
+  for (size_t i = 0; i < in.series.size(); ++i)
+    if (in.series[i].has_height)
+      entries.push_back(
+          {series_label(in.series[i].channel, in.series[i].tag), stroke_style(styles[i]), ""});
+  std::vector<std::string> altitude_styles;
+  std::map<std::string, size_t> tags_so_far;
+  for (const auto& a : in.altitude_series) {
+    altitude_styles.push_back(
+        stroke_style({colours.at(a.channel), kDashes[tags_so_far[a.channel]++ % kDashCount]}));
+    entries.push_back({series_label(a.channel, a.tag), altitude_styles.back(), ""});
+  }
+  for (size_t i = 0; i < in.series.size(); ++i)
+    if (!in.series[i].has_height)
+      entries.push_back(
+          {series_label(in.series[i].channel, in.series[i].tag) + "  no height estimated", "", "",
+           "no-height"});
+  const double width = f.left + f.width + kLegendGap + legend_width(entries) + 8;
+  std::string s = svg::open(width, canvas_height(f, entries.size()), "Height against time");
+  s += axes(f, xt, yt, "time since the first truth or estimate (s)", "height (m)", "height-clip");
+  s += "<g class=\"heights\" clip-path=\"url(#height-clip)\" fill=\"none\" "
+       "stroke-width=\"1.2\">\n";
+  for (const auto& l : truth_lines)
+    s += "<polyline class=\"truth-height\" stroke=\"#000\" stroke-opacity=\"0.55\" "
+         "stroke-width=\"2\" points=\"" +
+         points_attr(l, f) + "\"/>\n";
+  for (size_t i = 0; i < pose_lines.size(); ++i)
+    if (in.series[i].has_height)
+      s += "<polyline class=\"height\" " + series_attrs(in.series[i]) + " " +
+           stroke_style(styles[i]) + " points=\"" + points_attr(pose_lines[i], f) + "\"/>\n";
+  for (size_t i = 0; i < altitude_lines.size(); ++i)
+    s += "<polyline class=\"altitude\" data-channel=\"" + xml_text(in.altitude_series[i].channel) +
+         "\" data-tag=\"" + xml_text(in.altitude_series[i].tag) + "\" " + altitude_styles[i] +
+         " points=\"" + points_attr(altitude_lines[i], f) + "\"/>\n";
+  s += "</g>\n";
+  const bool any_height = std::any_of(in.series.begin(), in.series.end(),
+                                      [](const EstimateSeries& e) { return e.has_height; }) ||
+                          !in.altitude_series.empty();
+  if (!any_height)
+    s += no_data_note(f, in.series.empty() ? "no pose estimates in this log"
+                                           : "no estimate of a height in this log");
+  s += legend(entries, f.left + f.width + kLegendGap, kMarginTop + 6);
+  return s + "</svg>";
+}
+
 std::string utc_time(utime_t t) {
   const std::time_t secs = static_cast<std::time_t>(t / 1'000'000);
   std::tm tm{};
@@ -491,8 +585,8 @@ std::string stats_table(const ReportInput& in) {
   const auto colours = report_colours(in);
   for (const auto& r : in.rows) {
     s += "<tr><td><span class=\"swatch\" style=\"background:" + colours.at(r.channel) +
-         "\"></span></td><td>" + xml_text(r.channel) +
-         "</td><td>" + xml_text(r.tag) + "</td><td>" + std::to_string(r.count) + "</td>";
+         "\"></span></td><td>" + xml_text(r.channel) + "</td><td>" + xml_text(r.tag) + "</td><td>" +
+         std::to_string(r.count) + "</td>";
     for (double v : {r.mean_h, r.rmse_h, r.median_h, r.p95_h, r.max_h, r.rmse_v})
       s += "<td>" + (r.count ? table_number(v) : std::string("-")) + "</td>";
     s += "<td>" + std::to_string(r.non_finite) + "</td></tr>\n";
@@ -718,10 +812,12 @@ Report build_report(const ReportInput& in, const ReportOptions& options) {
   const ErrorScale scale = error_scale(in);
   r.error_time_svg = error_time_figure(in, options, scale);
   r.error_cdf_svg = error_cdf_figure(in, options, scale);
+  r.height_svg = height_figure(in, options);
 
   const auto [t0, t1] = time_span(in);
   std::string h;
-  h.reserve(r.map_svg.size() + r.error_time_svg.size() + r.error_cdf_svg.size() + 8192);
+  h.reserve(r.map_svg.size() + r.error_time_svg.size() + r.error_cdf_svg.size() +
+            r.height_svg.size() + 8192);
   h += "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>ips-eval: " +
        xml_text(in.log_path) +
        "</title>\n<style>\n"
@@ -792,6 +888,10 @@ Report build_report(const ReportInput& in, const ReportOptions& options) {
     h += "<p>The error axis is logarithmic: the series are more than " +
          format("%g", kOffScaleRatio) + " times apart in RMSE.</p>\n";
   h += "<figure>\n" + r.error_cdf_svg + "\n</figure>\n";
+  h += "<h2>Height against time</h2>\n<p>Truth, the pose channels that estimate a height and "
+       "ALTITUDE; a 2D estimator's height (<code>STATUS_2D</code>, or one fixed z) is no "
+       "estimate and is not drawn.</p>\n<figure>\n" +
+       r.height_svg + "\n</figure>\n";
   h += "</body>\n</html>\n";
   r.index_html = std::move(h);
   return r;

@@ -1,6 +1,7 @@
 #pragma once
-// The page behind `ips-eval --report DIR`: three figures as SVG (the map with anchors, truth and
-// every estimator's track; horizontal error against time; the error CDF with CEP50/CEP95) and the
+// The page behind `ips-eval --report DIR`: four figures as SVG (the map with anchors, truth and
+// every estimator's track; horizontal error against time; the error CDF with CEP50/CEP95; height
+// against time, without the series that estimate no height) and the
 // statistics table, as one self-contained HTML page (no script, no external asset). Pure: it
 // takes the Evaluator's numbers and returns strings; main.cpp writes the files. Each channel has
 // its colour from core/channel_colours (the same as in ips-view); the tags of one channel differ
@@ -18,11 +19,10 @@
 #include <map>
 #include <optional>
 #include <string>
-
-#include "core/text_escape.hpp"
 #include <string_view>
 #include <vector>
 
+#include "core/text_escape.hpp"
 #include "loggers/eval/evaluation.hpp"
 
 namespace ips::eval {
@@ -43,6 +43,7 @@ struct ReportInput {
   std::vector<ErrorRow> channel_rows;
   std::vector<AltitudeRow> altitude_rows;  // Evaluator::altitude_rows() (or _by_channel())
   std::vector<EstimateSeries> series;  // Evaluator::estimate_series(), the same channels and tags
+  std::vector<AltitudeSeries> altitude_series;  // Evaluator::altitude_series()
   // Evaluator::truth_tracks(), not copied (an hour of 10 tags at 50 Hz is 1.8 M samples); must
   // outlive build_report(). Null: no truth.
   const std::map<std::string, std::vector<PositionSample>>* truth = nullptr;
@@ -63,7 +64,8 @@ struct Report {
   std::string map_svg;
   std::string error_time_svg;
   std::string error_cdf_svg;
-  std::string index_html;  // holds the three <svg> elements inline, byte for byte
+  std::string height_svg;
+  std::string index_html;  // holds the four <svg> elements inline, byte for byte
 };
 
 Report build_report(const ReportInput& in, const ReportOptions& options = {});

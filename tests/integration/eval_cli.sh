@@ -8,7 +8,8 @@
 #     an error;
 #   - --by channel: one row per channel, counts the sums of its tags';
 #   - ALTITUDE rows in --json (count: every altitude with truth around it) and in the table;
-#   - 2D estimators (STATUS_2D) and series whose z never changes have rmse_v null / "-";
+#   - 2D estimators (STATUS_2D) and series whose z never changes have rmse_v null / "-" and no
+#     line in the report's height figure;
 #   - --dwell: a file (epoch ms, cm, header) with one interval equals --static-point over that
 #     interval; estimates outside are counted; the same on the log without TRUTH; a file whose
 #     intervals have no length or miss the log is a warning;
@@ -206,6 +207,13 @@ for l in open(f'{w}/all.txt'):
     f = l.split()
     if f and (f[0], f[1]) in planar_rows and len(f) == 9 and f[2] != '0':
         check(f[8] == '-', f'table row {l.strip()}: rmse_v of a 2D estimator')
+# The report's height figure: a line exactly for the rows with a vertical error.
+import xml.etree.ElementTree as ET
+hs = ET.parse(f'{w}/report/height.svg').getroot()
+drawn = {(p.get('data-channel'), p.get('data-tag')) for p in hs.iter('{http://www.w3.org/2000/svg}polyline')
+         if p.get('class') == 'height'}
+with_height = {(r['channel'], r['tag']) for r in all_rows if r['rmse_v'] is not None}
+check(with_height and drawn == with_height, f'height.svg lines {sorted(drawn)}, rows with rmse_v {sorted(with_height)}')
 
 # --dwell: the interval's point, as --static-point over the same window; the rest outside.
 dw, st = load('dwell.json'), load('static_window.json')

@@ -1,11 +1,12 @@
 #!/usr/bin/env bash
-# ips-eval --report on a real log (simulated lab, replayed): the three SVG files parse as XML; the
+# ips-eval --report on a real log (simulated lab, replayed): the four SVG files parse as XML; the
 # map has one anchor marker per SITE anchor, at the position ips-export reads from the log; one
 # estimator polyline per row of --json in the map and the CDF, in each channel's colour of
 # core/channel_colours (POSE_FUSED red, as ips-view draws it); the error-against-time figure draws
 # the rows within 5 times the best RMSE and lists the others as off scale with their RMSE; every
 # CDF climbs from 0 to 1 in one step per scored estimate, on a log axis when a row is off scale;
-# index.html holds the same figures inline, no script and no external asset, and its first table
+# the height figure has a line per row with a vertical error and per ALTITUDE row, none for the 2D
+# rows (named in its legend); index.html holds the same figures inline, no script and no external asset, and its first table
 # has the --json numbers ("-" heights for 2D rows; ALTITUDE has a table of its own); static-point
 # mode; a log without estimates; --json and the table unchanged by --report; an unwritable DIR
 # gives one error line and status 2.
@@ -59,7 +60,7 @@ def check(cond, what):
         errors.append(what)
 
 svgs = {}
-for name in ('map', 'error_time', 'error_cdf'):
+for name in ('map', 'error_time', 'error_cdf', 'height'):
     try:
         svgs[name] = ET.parse(f'{d}/{name}.svg').getroot()
     except ET.ParseError as e:
@@ -90,7 +91,8 @@ key = lambda r: (r['channel'], r['tag'])
 # The default channels' colours (core/channel_colours.cpp).
 COLOURS = {'TRUTH': '#000000', 'POSE_UWB': '#1f77b4', 'POSE_TDOA': '#ff7f0e', 'POSE_AOA': '#2ca02c',
            'POSE_FUSED': '#d62728', 'POSE_INS': '#9467bd', 'POSE_PDR': '#8c564b',
-           'INS_MODULE': '#17becf', 'POSE_UWB_MODULE': '#bcbd22', 'POSE_UWB_EPOCH': '#aec7e8'}
+           'INS_MODULE': '#17becf', 'POSE_UWB_MODULE': '#bcbd22', 'POSE_UWB_EPOCH': '#aec7e8',
+           'ALTITUDE': '#e377c2'}
 
 # One estimator polyline per row of --json in the map and the CDF, per row within the scale in
 # the error figure, each naming its row and in its channel's colour.
@@ -134,6 +136,25 @@ else:
     check(len(truth_lines) >= 1 and not static_marks, f'map: {len(truth_lines)} truth lines')
 for poly in by_class(m, 'polyline', 'estimate') + truth_lines:
     check(len(points(poly)) <= 2000, 'map polyline with more than 2000 points')
+
+# Heights: a line for every row with a vertical error (a height estimated), none for the 2D ones
+# (rmse_v null; with truth: a static point without z scores no height at all), which the legend
+# names; one per ALTITUDE row; truth's z per tag.
+hs = svgs['height']
+drawn = [(p.get('data-channel'), p.get('data-tag')) for p in by_class(hs, 'polyline', 'height')]
+no_height = [t.text for t in by_class(hs, 'text', 'no-height')]
+for r in rows:
+    if r['count'] and r['rmse_v'] is not None:
+        check(key(r) in drawn, f'height.svg: no height line for {key(r)}')
+    elif r['count'] and mode != 'static':
+        check(key(r) not in drawn, f'height.svg: height line for the 2D row {key(r)}')
+        check(f'{r["channel"]} / {r["tag"]}  no height estimated' in no_height, f'height.svg legend misses 2D {key(r)}')
+alt_rows = json.load(open(json_path)).get('altitude', [])
+alt_lines = by_class(hs, 'polyline', 'altitude')
+check(len(alt_lines) == len(alt_rows) and alt_rows, f'height.svg: {len(alt_lines)} ALTITUDE lines, {len(alt_rows)} rows')
+check(all(p.get('stroke') == COLOURS['ALTITUDE'] for p in alt_lines), 'height.svg: ALTITUDE not in its colour')
+if mode != 'static':
+    check(len(by_class(hs, 'polyline', 'truth-height')) == len(truth_lines), 'height.svg: one truth line per tag')
 
 # The CDFs: from y 0 to y 1, never down, one step (two points) per scored estimate.
 c = svgs['error_cdf']
@@ -191,7 +212,7 @@ class Page(html.parser.HTMLParser):
             self.row.append(data)
 p = Page()
 p.feed(page)
-check(p.tags.count('svg') == 3, f'index.html has {p.tags.count("svg")} <svg>')
+check(p.tags.count('svg') == 4, f'index.html has {p.tags.count("svg")} <svg>')
 check(not p.bad, f'index.html loads or runs something: {p.bad}')
 check(log_path in p.title, f'title {p.title!r} does not name {log_path!r}')
 table = [r for r in p.cells[1:] if r]
@@ -239,7 +260,7 @@ open(sys.argv[2], 'wb').write(out)
 PY
 if "$BIN/ips-eval" "$WORK/no_estimates.lcm" --report "$WORK/empty" >/dev/null 2>"$WORK/err" &&
   grep -q "No pose estimates in this log" "$WORK/empty/index.html" &&
-  python3 -c 'import sys, xml.etree.ElementTree as ET; [ET.parse(f"{sys.argv[1]}/{n}.svg") for n in ("map", "error_time", "error_cdf")]' "$WORK/empty"; then
+  python3 -c 'import sys, xml.etree.ElementTree as ET; [ET.parse(f"{sys.argv[1]}/{n}.svg") for n in ("map", "error_time", "error_cdf", "height")]' "$WORK/empty"; then
   ok "log without estimates: page says so; $(cat "$WORK/err")"
 else
   fail "log without estimates: $(cat "$WORK/err")"

@@ -18,7 +18,6 @@
 
 #include "core/channel_colours.hpp"
 #include "loggers/eval/evaluation.hpp"
-
 #include "tests/loggers/eval/pose_samples.hpp"
 
 namespace ips::eval {
@@ -324,6 +323,7 @@ TEST(Report, OnePolylinePerChannelAndTagInEveryFigure) {
   EXPECT_NE(r.index_html.find(r.map_svg), std::string::npos);
   EXPECT_NE(r.index_html.find(r.error_time_svg), std::string::npos);
   EXPECT_NE(r.index_html.find(r.error_cdf_svg), std::string::npos);
+  EXPECT_NE(r.index_html.find(r.height_svg), std::string::npos);
   EXPECT_EQ(r.index_html.find("<script"), std::string::npos);
   EXPECT_EQ(r.index_html.find("href="), std::string::npos);
   EXPECT_EQ(r.index_html.find("src="), std::string::npos);
@@ -424,12 +424,13 @@ TEST(Report, WithoutEstimatesThePageSaysSo) {
   ReportInput in;
   in.log_path = "empty.lcm";
   const Report r = build_report(in);
-  for (const auto* svg : {&r.map_svg, &r.error_time_svg, &r.error_cdf_svg})
+  for (const auto* svg : {&r.map_svg, &r.error_time_svg, &r.error_cdf_svg, &r.height_svg})
     expect_well_formed(*svg);
   EXPECT_NE(r.index_html.find("No pose estimates in this log"), std::string::npos);
   EXPECT_NE(r.error_cdf_svg.find("no pose estimates in this log"), std::string::npos);
   EXPECT_EQ(count(r.map_svg, "<polyline"), 0u);
-  EXPECT_EQ(count(r.index_html, "<svg"), 3u);
+  EXPECT_EQ(count(r.index_html, "<svg"), 4u);
+  EXPECT_NE(r.height_svg.find("no pose estimates in this log"), std::string::npos);
 
   // Estimates but no truth around them: drawn on the map, nothing scored.
   Evaluator ev;
@@ -538,7 +539,8 @@ TEST(Report, AChannelFarWorseIsListedOffScaleAndTheCdfAxisIsLogarithmic) {
   EXPECT_NE(r.error_cdf_svg.find("data-x-scale=\"log\""), std::string::npos);
   EXPECT_NE(r.error_cdf_svg.find("horizontal error (m, log scale)"), std::string::npos);
   EXPECT_EQ(log_ticks(0.05, 10), (std::vector<double>{0.05, 0.1, 0.2, 0.5, 1, 2, 5, 10}));
-  for (const char* label : {">0.05</text>", ">0.1</text>", ">0.2</text>", ">1</text>", ">10</text>"})
+  for (const char* label :
+       {">0.05</text>", ">0.1</text>", ">0.2</text>", ">1</text>", ">10</text>"})
     EXPECT_NE(r.error_cdf_svg.find(label), std::string::npos) << label;
   // CEP50 of each channel where log10(e / 0.05) / log10(10 / 0.05) of the 640 px puts it.
   for (double e : {0.05, 0.08, 6.0}) {
@@ -609,8 +611,7 @@ TEST(Report, HeightsOfTwoDimensionalAndFixedHeightSeriesAreADash) {
     const size_t row = r.index_html.find(std::string("<td>") + channel + "</td><td>T1</td>");
     ASSERT_NE(row, std::string::npos) << channel;
     const size_t end = r.index_html.find("</tr>", row);
-    EXPECT_NE(r.index_html.substr(row, end - row).find("<td>-</td><td>0</td>"),
-              std::string::npos)
+    EXPECT_NE(r.index_html.substr(row, end - row).find("<td>-</td><td>0</td>"), std::string::npos)
         << r.index_html.substr(row, end - row);
   }
   EXPECT_NE(r.index_html.find("<td>POSE_FUSED</td><td>T1</td><td>10</td><td>0.050</td>"
@@ -622,6 +623,38 @@ TEST(Report, HeightsOfTwoDimensionalAndFixedHeightSeriesAreADash) {
   ASSERT_NE(ins, std::string::npos);
   EXPECT_NE(r.index_html.substr(ins, r.index_html.find("</tr>", ins) - ins).find("<td>-</td>"),
             std::string::npos);
+}
+
+TEST(Report, HeightFigureDrawsOnlyEstimatedHeights) {
+  Evaluator ev;
+  for (int i = 0; i <= 10; ++i) ev.add_truth(pose(i * 1'000'000, "T1", i, 0, 1));
+  for (int i = 0; i < 10; ++i) {
+    const utime_t t = i * 1'000'000 + 500'000;
+    ev.add_estimate("POSE_3D", pose(t, "T1", i + 0.5, 0.1, i % 2 ? 1.2 : 1.0));
+    ev.add_estimate("POSE_PDR", planar_pose(t, "T1", i + 0.5, 0.2, 1));
+    ev.add_estimate("INS_MODULE", pose(t, "T1", i + 0.5, 0.3, 1.3));  // one fixed z
+    ev.add_altitude("ALTITUDE", testing::altitude(t, "T1", 1.1));
+  }
+  ReportInput in = input_from(ev);
+  in.altitude_series = ev.altitude_series();
+  const Report r = build_report(in);
+  expect_well_formed(r.height_svg);
+  const auto heights = polylines(r.height_svg, "height");
+  ASSERT_EQ(heights.size(), 1u);
+  EXPECT_NE(r.height_svg.find("class=\"height\" data-channel=\"POSE_3D\""), std::string::npos);
+  EXPECT_EQ(polylines(r.height_svg, "altitude").size(), 1u);
+  EXPECT_EQ(polylines(r.height_svg, "truth-height").size(), 1u);
+  EXPECT_EQ(r.height_svg.find("data-channel=\"POSE_PDR\""), std::string::npos);
+  EXPECT_EQ(r.height_svg.find("data-channel=\"INS_MODULE\""), std::string::npos);
+  // They are named in the legend instead.
+  EXPECT_EQ(count(r.height_svg, "class=\"no-height\""), 2u);
+  EXPECT_NE(r.height_svg.find("POSE_PDR / T1  no height estimated"), std::string::npos);
+  EXPECT_NE(r.height_svg.find("INS_MODULE / T1  no height estimated"), std::string::npos);
+  // Heights 1.0 to 1.2 m padded to 1 m tall: 0.6 to 1.6 m on 320 px from 28; 1.2 m at 156.0.
+  ASSERT_EQ(heights[0].size(), 10u);
+  EXPECT_NEAR(heights[0][1].y, 156.0, 0.051);
+  EXPECT_NEAR(heights[0][0].y, 28 + 0.6 * 320, 0.051);
+  EXPECT_EQ(count(r.index_html, "<svg"), 4u);
 }
 
 }  // namespace
