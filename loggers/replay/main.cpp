@@ -13,9 +13,11 @@
 #include <sstream>
 #include <spdlog/spdlog.h>
 
+#include "core/channels.hpp"
 #include "core/cli.hpp"
 #include "core/log_input.hpp"
 #include "core/log_reader.hpp"
+#include "core/text_escape.hpp"
 #include "loggers/replay/replay_host.hpp"
 
 int main(int argc, char** argv) {
@@ -37,14 +39,26 @@ int main(int argc, char** argv) {
                                         return s;
                                       }() +
                                       ")");
+  std::string zones_pose_channel = "POSE_FUSED";
+  app.add_option("--zones-pose-channel", zones_pose_channel,
+                 "the poses the hosted ips-zones watches (its --pose-channel: TRUTH, "
+                 "POSE_UWB, ...)")
+      ->capture_default_str();
   app.add_flag("--keep", keep, "also copy input events on channels the estimators regenerate");
   int rc = 0;
   if (!ips::parse_command_line(app, opts, argc, argv, rc)) return rc;
+  if (!ips::channel::valid_channel_name(zones_pose_channel)) {
+    ips::print_fatal("ips-replay", "--zones-pose-channel: '" +
+                                       ips::printable(zones_pose_channel) +
+                                       "' is not a channel name (1 to 63 of A-Z a-z 0-9 _)");
+    return 2;
+  }
 
   return ips::run_reporting_errors("ips-replay", [&]() -> int {
     ips::replay::ReplayOptions ro;
     ro.keep_regenerated = keep;
     ro.site_path = opts.site_path;
+    ro.zones_pose_channel = zones_pose_channel;
     std::stringstream names(only);
     for (std::string n; std::getline(names, n, ',');)
       if (!n.empty()) ro.only.insert(n);

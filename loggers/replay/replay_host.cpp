@@ -11,6 +11,7 @@
 #include <ips/uwb_range_t.hpp>
 #include <ips/uwb_rx_t.hpp>
 #include <ips/uwb_tdoa_t.hpp>
+#include <type_traits>
 
 #include "core/channels.hpp"
 #include "core/node.hpp"
@@ -25,10 +26,11 @@ constexpr const char* kPdr = "pdr";
 constexpr const char* kIns = "ins";
 constexpr const char* kAltitude = "altitude";
 constexpr const char* kFuse = "fuse";
+constexpr const char* kZones = "zones";
 }  // namespace
 
 std::vector<std::string> ReplayHost::available() {
-  return {kUwbTwr, kUwbTdoa, kAoa, kPdr, kIns, kAltitude, kFuse};
+  return {kUwbTwr, kUwbTdoa, kAoa, kPdr, kIns, kAltitude, kFuse, kZones};
 }
 
 ReplayHost::ReplayHost(const ReplayOptions& opts, const CommonOptions& channels, Sink sink)
@@ -119,6 +121,25 @@ ReplayHost::ReplayHost(const ReplayOptions& opts, const CommonOptions& channels,
     });
     produced_channels_.insert(out);
   }
+  if (wanted(kZones)) {
+    // After the estimators: it watches what they produce (ips-zones on the bus).
+    const std::string events = channels_.channel(channel::kZoneEvent);
+    const std::string alerts = channels_.channel(channel::kAlert);
+    zones::ZoneMonitorOptions zo;
+    zo.pose_channel = opts_.zones_pose_channel;
+    zones_ = std::make_unique<zones::ZoneMonitor>(
+        zo,
+        [this, events](const zone_event_t& e) {
+          ++counts_[kZonesIndex].out;
+          write(events, e);
+        },
+        [this, alerts](const alert_t& a) {
+          ++counts_[kZonesIndex].out;
+          write(alerts, a);
+        });
+    produced_channels_.insert(events);
+    produced_channels_.insert(alerts);
+  }
   if (!opts_.site_path.empty()) apply_site(load_site_file(opts_.site_path));
 }
 
@@ -131,6 +152,7 @@ std::vector<std::string> ReplayHost::hosted() const {
   if (ins_) names.push_back(kIns);
   if (altitude_) names.push_back(kAltitude);
   if (fuse_) names.push_back(kFuse);
+  if (zones_) names.push_back(kZones);
   return names;
 }
 
@@ -140,6 +162,19 @@ void ReplayHost::write(const std::string& channel, const Msg& msg) {
   msg.encode(buffer_.data(), 0, static_cast<int>(buffer_.size()));
   ++stats_.estimates_out;
   sink_(channel, now_timestamp_, buffer_.data(), buffer_.size());
+  // ips-zones hears the estimates as they are written (POSE_FUSED too: fuse's poses are written,
+  // not emitted).
+  if constexpr (std::is_same_v<Msg, pose_t>) {
+    if (zones_ && channel == opts_.zones_pose_channel) {
+      ++counts_[kZonesIndex].in;
+      zones_->on_pose(msg);
+    }
+  } else if constexpr (std::is_same_v<Msg, altitude_t>) {
+    if (zones_ && channel == channels_.channel(channel::kAltitude)) {
+      ++counts_[kZonesIndex].in;
+      zones_->on_altitude(msg);
+    }
+  }
 }
 
 template <class Msg>
@@ -220,6 +255,38 @@ void ReplayHost::apply_site(const Site& site) {
   if (ins_) ins_->set_site(site);
   if (altitude_) altitude_->set_site(site);
   if (fuse_) fuse_->set_site(site);
+  if (zones_) zones_->set_site(site);
+}
+
+void ReplayHost::feed_zones_from_log(const std::string& channel, const uint8_t* data,
+                                     size_t size) {
+  // What a hosted estimator regenerates reaches ips-zones through write().
+  if (produced_channels_.count(channel)) return;
+  if (channel == opts_.zones_pose_channel) {
+    pose_t m;
+    if (!decode_message(m, data, size)) {
+      ++stats_.undecodable;
+      return;
+    }
+    ++counts_[kZonesIndex].in;
+    zones_->on_pose(m);
+  } else if (channel == channels_.channel(channel::kAltitude)) {
+    altitude_t m;
+    if (!decode_message(m, data, size)) {
+      ++stats_.undecodable;
+      return;
+    }
+    ++counts_[kZonesIndex].in;
+    zones_->on_altitude(m);
+  } else if (channel == channels_.channel(channel::kHealth)) {
+    health_t m;
+    if (!decode_message(m, data, size)) {
+      ++stats_.undecodable;
+      return;
+    }
+    ++counts_[kZonesIndex].in;
+    zones_->on_health(m);
+  }
 }
 
 void ReplayHost::finish() {
@@ -240,6 +307,7 @@ void ReplayHost::process(const std::string& channel, int64_t timestamp, const ui
     ++stats_.passed_through;
     sink_(channel, timestamp, data, size);
   }
+  if (zones_) feed_zones_from_log(channel, data, size);
   if (channel == channels_.channel(channel::kSite) && opts_.site_path.empty()) {
     site_t m;
     if (!decode_message(m, data, size)) {
@@ -385,13 +453,17 @@ std::vector<EstimatorAccount> ReplayHost::accounts() const {
   if (ins_) account(kInsIndex, kIns, ch(channel::kImu), *ins_);
   if (altitude_) account(kAltitudeIndex, kAltitude, ch(channel::kBaro), *altitude_);
   if (fuse_) account(kFuseIndex, kFuse, "messages", *fuse_);
+  if (zones_) account(kZonesIndex, kZones, opts_.zones_pose_channel, *zones_);
   return out;
 }
 
 std::string ReplayHost::nothing_estimated() const {
   int64_t in = 0, out = 0;
   std::string inputs, why, fuse_why;
+  // ips-zones consumes estimates and is not one: its events count only when it is alone.
+  const bool zones_alone = zones_ && hosted().size() == 1;
   for (const auto& a : accounts()) {
+    if (a.name == kZones && !zones_alone) continue;
     in += a.messages_in;
     out += a.estimates_out;
     if (a.name == kFuse) {

@@ -20,6 +20,7 @@
 #include "estimators/pdr/pdr_estimator.hpp"
 #include "estimators/uwb_tdoa/tdoa_estimator.hpp"
 #include "estimators/uwb_twr/twr_estimator.hpp"
+#include "estimators/zones/zone_monitor.hpp"
 #include "fusion/fuse_estimator.hpp"
 
 namespace ips::replay {
@@ -28,6 +29,9 @@ struct ReplayOptions {
   std::set<std::string> only;      // estimator names to host; empty: all
   bool keep_regenerated = false;   // keep input events on channels the hosted estimators produce
   std::string site_path;           // use this site file instead of the log's SITE messages
+  // The poses ips-zones watches (its --pose-channel): from the hosted estimator that produces
+  // them, else from the log (TRUTH, or POSE_FUSED with `fuse` not hosted).
+  std::string zones_pose_channel = "POSE_FUSED";
 };
 
 struct ReplayStats {
@@ -110,10 +114,12 @@ class ReplayHost {
   // A log event on one of the fusion's inputs that no hosted estimator produces.
   void feed_fuse_from_log(const std::string& channel, const uint8_t* data, size_t size);
   void apply_site(const Site& site);
+  // A log event for the hosted ips-zones: its poses, ALTITUDE, HEALTH.
+  void feed_zones_from_log(const std::string& channel, const uint8_t* data, size_t size);
 
   // Messages in and estimates out per estimator, in the order of available().
   enum Hosted { kTwrIndex, kTdoaIndex, kAoaIndex, kPdrIndex, kInsIndex, kAltitudeIndex, kFuseIndex,
-                kNumHosted };
+                kZonesIndex, kNumHosted };
   struct Counts {
     int64_t in = 0;
     int64_t out = 0;
@@ -135,6 +141,7 @@ class ReplayHost {
   std::unique_ptr<ins::InsEstimator> ins_;
   std::unique_ptr<altitude::AltitudeEstimator> altitude_;
   std::unique_ptr<fusion::FuseEstimator> fuse_;
+  std::unique_ptr<zones::ZoneMonitor> zones_;
 };
 
 }  // namespace ips::replay

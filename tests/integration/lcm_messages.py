@@ -61,3 +61,34 @@ def altitude(data):
     return dict(utime=r.take('q'), source=r.string(), tag_id=r.string(), height_m=r.take('d'),
                 height_std_m=r.take('d'), vertical_speed_mps=r.take('d'), floor=r.take('i'),
                 floor_valid=bool(r.take('b')))
+
+
+def pose(data):
+    r = _Reader(data)
+    p = dict(utime=r.take('q'), source=r.string(), tag_id=r.string(),
+             position=[r.take('d') for _ in range(3)])
+    r.i += 8 * 9 + 8 * 3 + 8 + 4 + 8  # position_cov, velocity, heading_rad, num_used, residual_m
+    p['status'] = r.take('i')
+    return p
+
+
+def zone_event(data):
+    r = _Reader(data)
+    return dict(utime=r.take('q'), source=r.string(), seq=r.take('q'), tag_id=r.string(),
+                zone_id=r.string(), zone_name=r.string(), floor=r.take('i'), event=r.take('b'),
+                dwell_s=r.take('d'), position=[r.take('d') for _ in range(3)],
+                pose_channel=r.string(), alert=bool(r.take('b')))
+
+
+ZONE_ENTER, ZONE_LEAVE, ZONE_DWELL = 1, 2, 3
+
+
+def alert(data):
+    r = _Reader(data)
+    return dict(utime=r.take('q'), source=r.string(), seq=r.take('q'), id=r.take('q'),
+                kind=r.take('b'), severity=r.take('b'), state=r.take('b'), subject=r.string(),
+                text=r.string())
+
+
+ALERT_TAG_SILENT, ALERT_PROCESS_DEGRADED, ALERT_PROCESS_GONE, ALERT_ZONE = 1, 2, 3, 4
+ALERT_RAISED, ALERT_CLEARED = 1, 2

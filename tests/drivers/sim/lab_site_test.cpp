@@ -79,6 +79,26 @@ TEST(LabSiteFile, IsWhatTheLabScenarioPublishes) {
     ASSERT_TRUE(se[name]) << "estimators." << name << " is not in the lab scenario's site";
     EXPECT_EQ(YAML::Dump(kv.second), YAML::Dump(se[name])) << "estimators." << name;
   }
+
+  // The zones and the alert rules (ips-zones).
+  ASSERT_EQ(file.layout.zones.size(), sim.layout.zones.size());
+  EXPECT_FALSE(file.layout.zones.empty());
+  for (size_t i = 0; i < file.layout.zones.size(); ++i) {
+    const Zone& f = file.layout.zones[i];
+    const Zone& s = sim.layout.zones[i];
+    EXPECT_EQ(f.id, s.id);
+    EXPECT_EQ(f.name, s.name) << f.id;
+    EXPECT_EQ(f.floor, s.floor) << f.id;
+    EXPECT_EQ(f.polygon, s.polygon) << f.id;
+    EXPECT_TRUE(f.alert.enter == s.alert.enter && f.alert.leave == s.alert.leave &&
+                f.alert.dwell == s.alert.dwell)
+        << f.id;
+    EXPECT_EQ(f.dwell_s, s.dwell_s) << f.id;
+    EXPECT_EQ(f.hysteresis_m, s.hysteresis_m) << f.id;
+  }
+  EXPECT_EQ(file.layout.alerts.tag_silent_s, sim.layout.alerts.tag_silent_s);
+  EXPECT_EQ(file.layout.alerts.process_silent_s, sim.layout.alerts.process_silent_s);
+  EXPECT_EQ(file.layout.alerts.process_degraded, sim.layout.alerts.process_degraded);
 }
 
 // The lab is a showcase: its tag starts where the site says (dead reckoning starts right), and

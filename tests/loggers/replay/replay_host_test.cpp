@@ -350,7 +350,7 @@ TEST(ReplayHost, OnlyNamesKnownEstimators) {
   } catch (const ConfigError& e) {
     EXPECT_STREQ(e.what(),
                  "--only: unknown estimator 'teleport' (uwb_twr, uwb_tdoa, aoa, pdr, ins, "
-                 "altitude, fuse)");
+                 "altitude, fuse, zones)");
   }
 }
 
