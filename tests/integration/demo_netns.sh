@@ -50,7 +50,7 @@ else:
 procs = r["processes"]
 names = {p["source"] for p in procs}
 want = {"ips-sim", "ips-uwb-twr", "ips-uwb-tdoa", "ips-aoa", "ips-pdr", "ips-ins", "ips-altitude",
-        "ips-uwb-survey", "ips-fuse", "ips-view"}
+        "ips-uwb-survey", "ips-fuse", "ips-zones", "ips-view"}
 if not want <= names:
     bad.append(f"no HEALTH from {sorted(want - names)}")
 lost_only = []
