@@ -7,7 +7,8 @@
 // BLE_AOA, IMU and BARO sequences into the AoA, PDR and altitude estimators; a mixed sequence of
 // every input of ips-fuse into the fusion estimator (selector 19 and up; 16 decodes
 // uwb_twr_timestamps_t, 17 uwb_tdoa_t; 18 feeds a sequence of uwb_tdoa_t, pairwise TDoA, into the
-// TDoA estimator's pair tracker, which must publish only finite positions).
+// TDoA estimator's pair tracker, which must publish only finite positions; 20 a mixed sequence of
+// poses, ALTITUDE and HEALTH into ips-zones' monitor, whose events must be in order and finite).
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
@@ -32,6 +33,7 @@
 #include "estimators/pdr/pdr_estimator.hpp"
 #include "estimators/uwb_tdoa/tdoa_estimator.hpp"
 #include "estimators/uwb_twr/twr_estimator.hpp"
+#include "estimators/zones/zone_monitor.hpp"
 #include "fusion/fuse_estimator.hpp"
 
 namespace {
@@ -231,6 +233,52 @@ void feed_fuse(const uint8_t* data, size_t size) {
   }
   est.flush();
 }
+
+// A mixed sequence into ips-zones: [kind byte][length byte][message bytes]..., the kind picking
+// a pose, an ALTITUDE or a HEALTH. The site has two floors, a zone on one of them with a dwell,
+// and a zone on every floor, so that every path of the hysteresis, floor and alert rules runs.
+void feed_zones(const uint8_t* data, size_t size) {
+  static const ips::Site site = ips::parse_site_text(
+      "name: z\nanchors:\n  - {id: A1, position: [0, 0, 2.4]}\n"
+      "tags:\n  - {id: T1}\n  - {id: T2}\n"
+      "floors:\n  - {index: 0, height_m: 0}\n  - {index: 1, height_m: 3.5}\n"
+      "zones:\n  - {id: a, floor: 0, polygon: [[3, 0.5], [6, 0.5], [6, 2.5], [3, 2.5]], "
+      "dwell_s: 1, alert: [enter, dwell]}\n"
+      "  - {id: b, polygon: [[0, 3], [2.5, 3], [2.5, 6], [0, 6]], alert: leave, "
+      "hysteresis_m: 0}\n"
+      "alerts: {tag_silent_s: 2, process_silent_s: 2}\n",
+      "fuzz-zones-site");
+  int64_t event_seq = 0, alert_seq = 0;
+  ips::zones::ZoneMonitor monitor(
+      {},
+      [&](const ips::zone_event_t& e) {
+        if (e.seq != event_seq++) throw std::logic_error("zone event out of sequence");
+        if (!std::isfinite(e.dwell_s) || e.dwell_s < 0)
+          throw std::logic_error("zone event with a bad dwell_s");
+      },
+      [&](const ips::alert_t& a) {
+        if (a.seq != alert_seq++ || a.id <= 0) throw std::logic_error("alert out of sequence");
+        if (a.text.find('\n') != std::string::npos) throw std::logic_error("alert text lines");
+      });
+  monitor.set_site(site);
+  size_t pos = 0;
+  while (pos + 2 < size) {
+    const uint8_t kind = data[pos] % 3;
+    const size_t len = std::min<size_t>(data[pos + 1], size - pos - 2);
+    const uint8_t* m = data + pos + 2;
+    pos += 2 + len;
+    auto feed = [&](auto msg, auto&& use) {
+      if (ips::decode_message(msg, m, len)) use(msg);
+    };
+    switch (kind) {
+      case 0: feed(ips::pose_t{}, [&](const ips::pose_t& x) { monitor.on_pose(x); }); break;
+      case 1:
+        feed(ips::altitude_t{}, [&](const ips::altitude_t& x) { monitor.on_altitude(x); });
+        break;
+      default: feed(ips::health_t{}, [&](const ips::health_t& x) { monitor.on_health(x); }); break;
+    }
+  }
+}
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
@@ -257,6 +305,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     case 16: decode_one<ips::uwb_twr_timestamps_t>(d, n); break;
     case 17: decode_one<ips::uwb_tdoa_t>(d, n); break;
     case 18: feed_tdoa_pairs(d, n); break;
+    case 20: feed_zones(d, n); break;
     default: feed_fuse(d, n); break;
   }
   return 0;
