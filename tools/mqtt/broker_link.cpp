@@ -50,8 +50,9 @@ BrokerLink::BrokerLink(BrokerOptions opts) : opts_(std::move(opts)) {
     rc = mosquitto_tls_set(mosq_, opts_.cafile.c_str(), nullptr,
                            opts_.certfile.empty() ? nullptr : opts_.certfile.c_str(),
                            opts_.keyfile.empty() ? nullptr : opts_.keyfile.c_str(), nullptr);
-    if (rc) throw std::runtime_error(std::string("TLS files (--cafile, --cert, --key): ") +
-                                     mosquitto_strerror(rc));
+    if (rc)
+      throw std::runtime_error(std::string("TLS files (--cafile, --cert, --key): ") +
+                               mosquitto_strerror(rc));
     if (opts_.tls_insecure) mosquitto_tls_insecure_set(mosq_, true);
   }
 }
@@ -66,7 +67,9 @@ BrokerLink::~BrokerLink() {
   mosquitto_destroy(mosq_);
 }
 
-void BrokerLink::start() { thread_ = std::thread([this] { run(); }); }
+void BrokerLink::start() {
+  thread_ = std::thread([this] { run(); });
+}
 
 std::string BrokerLink::address() const {
   const bool v6 = opts_.host.find(':') != std::string::npos;
@@ -152,8 +155,8 @@ void BrokerLink::run() {
 void BrokerLink::on_connect(struct mosquitto*, void* self, int rc) {
   auto* link = static_cast<BrokerLink*>(self);
   if (rc != 0) {
-    link->connack_reason_ = std::string("the broker refused the connection: ") +
-                            mosquitto_connack_string(rc);
+    link->connack_reason_ =
+        std::string("the broker refused the connection: ") + mosquitto_connack_string(rc);
     if (link->connack_reason_.back() == '.') link->connack_reason_.pop_back();
     return;
   }

@@ -74,13 +74,14 @@ bool read_password(const std::string& file, std::string& password, std::string& 
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{"ips-mqtt: bridges the LCM bus to an MQTT broker: poses (rate-limited per tag), "
-               "zone events, alerts and every process's HEALTH as JSON on "
-               "<prefix>/<site>/tag/<tag>/pose, .../tag/<tag>/zone, <prefix>/<site>/alert and "
-               "<prefix>/<site>/health/<process> (docs/mqtt.md). Reconnects by itself with a "
-               "back-off; while the broker is away it counts what it could not send and is "
-               "degraded in HEALTH.",
-               kProgram};
+  CLI::App app{
+      "ips-mqtt: bridges the LCM bus to an MQTT broker: poses (rate-limited per tag), "
+      "zone events, alerts and every process's HEALTH as JSON on "
+      "<prefix>/<site>/tag/<tag>/pose, .../tag/<tag>/zone, <prefix>/<site>/alert and "
+      "<prefix>/<site>/health/<process> (docs/mqtt.md). Reconnects by itself with a "
+      "back-off; while the broker is away it counts what it could not send and is "
+      "degraded in HEALTH.",
+      kProgram};
   app.footer(
       "Example (a broker on this machine; watch it with mosquitto_sub):\n"
       "  ips-mqtt --max-pose-hz 2\n"
@@ -111,8 +112,7 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(0, 1));
   app.add_flag("--retain-health", retain_health,
                "publish HEALTH retained (a new subscriber gets each process's last report)");
-  app.add_option("--host", broker.host, "the broker's host name or address")
-      ->capture_default_str();
+  app.add_option("--host", broker.host, "the broker's host name or address")->capture_default_str();
   app.add_option("--port", broker.port, "the broker's port")
       ->capture_default_str()
       ->check(CLI::Range(1, 65535));
@@ -162,10 +162,21 @@ int main(int argc, char** argv) {
   if (!broker.certfile.empty() && broker.cafile.empty())
     return usage("--cert needs --cafile (TLS)");
   if (broker.tls_insecure && broker.cafile.empty()) return usage("--tls-insecure needs --cafile");
+  // libmosquitto says only "Invalid function arguments" of a file it cannot read.
+  for (const auto& [flag, file] :
+       {std::pair<const char*, const std::string&>{"--cafile", broker.cafile},
+        {"--cert", broker.certfile},
+        {"--key", broker.keyfile}}) {
+    if (file.empty()) continue;
+    try {
+      (void)ips::read_text_file(file);
+    } catch (const ips::ConfigError& e) {
+      return usage(std::string(flag) + ": " + e.what());
+    }
+  }
   if (!password_file.empty() && broker.username.empty())
     return usage("--password-file needs --username");
-  if (std::string error; !read_password(password_file, broker.password, error))
-    return usage(error);
+  if (std::string error; !read_password(password_file, broker.password, error)) return usage(error);
   if (!is_loopback(broker.host) && broker.cafile.empty())
     std::fprintf(stderr,
                  "%s: warning: --host %s is not this machine and TLS is off (--cafile): "
@@ -228,9 +239,9 @@ int main(int argc, char** argv) {
         case mq::BrokerLink::Sent::kQueueFull:
           ++node.counters().drops;
           ++queue_full;
-          node.report_error("broker " + address + " reads too slowly: " +
-                            std::to_string(queue_full) + " messages not sent (" +
-                            std::to_string(broker.max_queued) + " waiting)");
+          node.report_error(
+              "broker " + address + " reads too slowly: " + std::to_string(queue_full) +
+              " messages not sent (" + std::to_string(broker.max_queued) + " waiting)");
           return;
         case mq::BrokerLink::Sent::kRefused:
           ++node.counters().drops;
@@ -244,11 +255,11 @@ int main(int argc, char** argv) {
         if (e.connected) {
           if (away) {
             say_away();  // last_error keeps the outage's final count
-            spdlog::info("{}: broker {}: connected again after {:.1f} s; {} messages not sent "
-                         "meanwhile",
-                         kProgram, address,
-                         std::chrono::duration<double>(e.at - away_since).count(),
-                         unsent_while_away);
+            spdlog::info(
+                "{}: broker {}: connected again after {:.1f} s; {} messages not sent "
+                "meanwhile",
+                kProgram, address, std::chrono::duration<double>(e.at - away_since).count(),
+                unsent_while_away);
           } else {
             spdlog::info("{}: broker {}: connected", kProgram, address);
           }
@@ -281,21 +292,19 @@ int main(int argc, char** argv) {
       node.subscribe<ips::pose_t>(channel, [&](const ips::pose_t& p, const std::string& ch) {
         if (limiter.admit(p, ch, ips::wall_utime_now())) send_pose(p, ch);
       });
-    node.subscribe<ips::zone_event_t>(
-        opts.channel(ips::channel::kZoneEvent),
-        [&](const ips::zone_event_t& e, const std::string&) {
-          send(mq::zone_topic(topic_prefix, site, e.tag_id), mq::zone_json(e), false);
+    node.subscribe<ips::zone_event_t>(opts.channel(ips::channel::kZoneEvent),
+                                      [&](const ips::zone_event_t& e, const std::string&) {
+                                        send(mq::zone_topic(topic_prefix, site, e.tag_id),
+                                             mq::zone_json(e), false);
+                                      });
+    node.subscribe<ips::alert_t>(
+        opts.channel(ips::channel::kAlert), [&](const ips::alert_t& a, const std::string&) {
+          send(mq::alert_topic(topic_prefix, site), mq::alert_json(a), false);
         });
-    node.subscribe<ips::alert_t>(opts.channel(ips::channel::kAlert),
-                                 [&](const ips::alert_t& a, const std::string&) {
-                                   send(mq::alert_topic(topic_prefix, site), mq::alert_json(a),
-                                        false);
-                                 });
-    node.subscribe<ips::health_t>(opts.channel(ips::channel::kHealth),
-                                  [&](const ips::health_t& h, const std::string&) {
-                                    send(mq::health_topic(topic_prefix, site, h.source),
-                                         mq::health_json(h), retain_health);
-                                  });
+    node.subscribe<ips::health_t>(
+        opts.channel(ips::channel::kHealth), [&](const ips::health_t& h, const std::string&) {
+          send(mq::health_topic(topic_prefix, site, h.source), mq::health_json(h), retain_health);
+        });
 
     // Held poses go once their tag's interval has passed: a tenth of it late at most.
     if (max_pose_hz > 0)
@@ -309,18 +318,17 @@ int main(int argc, char** argv) {
         say_away();
       }
       if (max_pose_hz > 0)
-        node.report_note("rate", "poses at most " + fmt::format("{:g}", max_pose_hz) +
-                                     " Hz per tag and channel: " +
-                                     std::to_string(limiter.rate_limited()) +
-                                     " merged into later ones");
+        node.report_note("rate",
+                         "poses at most " + fmt::format("{:g}", max_pose_hz) +
+                             " Hz per tag and channel: " + std::to_string(limiter.rate_limited()) +
+                             " merged into later ones");
     });
     std::string channels;
     for (const auto& c : pose_channels) channels += c + ", ";
     spdlog::info("{}: bridging {}{}, {}, {} to the broker {} (QoS {}{}), topics {}/{}/...",
-                 kProgram, channels,
-                 opts.channel(ips::channel::kZoneEvent), opts.channel(ips::channel::kAlert),
-                 opts.channel(ips::channel::kHealth), address, broker.qos,
-                 broker.cafile.empty() ? ", no TLS" : ", TLS", topic_prefix,
+                 kProgram, channels, opts.channel(ips::channel::kZoneEvent),
+                 opts.channel(ips::channel::kAlert), opts.channel(ips::channel::kHealth), address,
+                 broker.qos, broker.cafile.empty() ? ", no TLS" : ", TLS", topic_prefix,
                  mq::topic_level(site));
     link->start();
     // A broker on this machine answers within milliseconds: wait for it (at most 2 s) so that
@@ -329,9 +337,10 @@ int main(int argc, char** argv) {
     while (!link->connected() && std::chrono::steady_clock::now() < give_up)
       std::this_thread::sleep_for(std::chrono::milliseconds(5));
     const int status = node.run();
-    spdlog::info("{}: {} messages sent, {} not sent (broker away), {} poses merged by the rate "
-                 "limit",
-                 kProgram, sent_total, unsent_total, limiter.rate_limited());
+    spdlog::info(
+        "{}: {} messages sent, {} not sent (broker away), {} poses merged by the rate "
+        "limit",
+        kProgram, sent_total, unsent_total, limiter.rate_limited());
     return status;
   });
 }

@@ -137,43 +137,64 @@ std::optional<Ellipse> two_sigma_ellipse(const double (&cov)[9]) {
 
 std::string zone_event_name(int8_t event) {
   switch (event) {
-    case zone_event_t::EVENT_ENTER: return "enter";
-    case zone_event_t::EVENT_LEAVE: return "leave";
-    case zone_event_t::EVENT_DWELL: return "dwell";
-    default: return unknown(event);
+    case zone_event_t::EVENT_ENTER:
+      return "enter";
+    case zone_event_t::EVENT_LEAVE:
+      return "leave";
+    case zone_event_t::EVENT_DWELL:
+      return "dwell";
+    default:
+      return unknown(event);
   }
 }
 std::string alert_kind_name(int8_t kind) {
   switch (kind) {
-    case alert_t::KIND_TAG_SILENT: return "tag_silent";
-    case alert_t::KIND_PROCESS_DEGRADED: return "process_degraded";
-    case alert_t::KIND_PROCESS_GONE: return "process_gone";
-    case alert_t::KIND_ZONE: return "zone";
-    default: return unknown(kind);
+    case alert_t::KIND_TAG_SILENT:
+      return "tag_silent";
+    case alert_t::KIND_PROCESS_DEGRADED:
+      return "process_degraded";
+    case alert_t::KIND_PROCESS_GONE:
+      return "process_gone";
+    case alert_t::KIND_ZONE:
+      return "zone";
+    default:
+      return unknown(kind);
   }
 }
 std::string alert_severity_name(int8_t severity) {
   switch (severity) {
-    case alert_t::SEVERITY_INFO: return "info";
-    case alert_t::SEVERITY_WARNING: return "warning";
-    case alert_t::SEVERITY_CRITICAL: return "critical";
-    default: return unknown(severity);
+    case alert_t::SEVERITY_INFO:
+      return "info";
+    case alert_t::SEVERITY_WARNING:
+      return "warning";
+    case alert_t::SEVERITY_CRITICAL:
+      return "critical";
+    default:
+      return unknown(severity);
   }
 }
 std::string alert_state_name(int8_t state) {
   switch (state) {
-    case alert_t::STATE_RAISED: return "raised";
-    case alert_t::STATE_CLEARED: return "cleared";
-    default: return unknown(state);
+    case alert_t::STATE_RAISED:
+      return "raised";
+    case alert_t::STATE_CLEARED:
+      return "cleared";
+    default:
+      return unknown(state);
   }
 }
 std::string health_state_name(int8_t state) {
   switch (state) {
-    case health_t::STATE_OK: return "ok";
-    case health_t::STATE_DEGRADED: return "degraded";
-    case health_t::STATE_ERROR: return "error";
-    case health_t::STATE_STARTING: return "starting";
-    default: return unknown(state);
+    case health_t::STATE_OK:
+      return "ok";
+    case health_t::STATE_DEGRADED:
+      return "degraded";
+    case health_t::STATE_ERROR:
+      return "error";
+    case health_t::STATE_STARTING:
+      return "starting";
+    default:
+      return unknown(state);
   }
 }
 
@@ -212,12 +233,11 @@ std::string pose_json(const pose_t& p, const std::string& channel) {
   j["residual_m"] = number_or_null(p.residual_m);
   j["status"] = p.status;
   json flags = json::array();
-  const std::pair<int32_t, const char*> names[] = {
-      {pose_t::STATUS_OK, "ok"},
-      {pose_t::STATUS_INITIALISING, "initialising"},
-      {pose_t::STATUS_COASTING, "coasting"},
-      {pose_t::STATUS_2D, "2d"},
-      {pose_t::STATUS_REINITIALISED, "reinitialised"}};
+  const std::pair<int32_t, const char*> names[] = {{pose_t::STATUS_OK, "ok"},
+                                                   {pose_t::STATUS_INITIALISING, "initialising"},
+                                                   {pose_t::STATUS_COASTING, "coasting"},
+                                                   {pose_t::STATUS_2D, "2d"},
+                                                   {pose_t::STATUS_REINITIALISED, "reinitialised"}};
   for (const auto& [bit, name] : names)
     if (p.status & bit) flags.push_back(name);
   j["flags"] = flags;

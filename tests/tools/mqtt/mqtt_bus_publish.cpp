@@ -16,8 +16,6 @@
 //       text "T1 entered Z1 (restricted)".
 //   mqtt_bus_publish health SOURCE STATE
 //       a health_t of process SOURCE in STATE, msgs_in 42, last_error "disk full", note "a note".
-#include <lcm/lcm-cpp.hpp>
-
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -26,6 +24,7 @@
 #include <ips/health_t.hpp>
 #include <ips/pose_t.hpp>
 #include <ips/zone_event_t.hpp>
+#include <lcm/lcm-cpp.hpp>
 #include <string>
 #include <thread>
 
@@ -64,8 +63,9 @@ int main(int argc, char** argv) {
     const int64_t start_utime = wall_utime();
     for (long i = 0; i < count; ++i) {
       if (hz > 0)
-        std::this_thread::sleep_until(start + std::chrono::duration_cast<std::chrono::nanoseconds>(
-                                                  std::chrono::duration<double>(static_cast<double>(i) / hz)));
+        std::this_thread::sleep_until(
+            start + std::chrono::duration_cast<std::chrono::nanoseconds>(
+                        std::chrono::duration<double>(static_cast<double>(i) / hz)));
       const long n = first + i;
       ips::pose_t p{};
       p.utime = wall_utime();

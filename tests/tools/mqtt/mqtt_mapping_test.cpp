@@ -40,13 +40,15 @@ TEST(MqttTopicLevel, WildcardsSeparatorsControlAndBadUtf8BecomeUnderscores) {
   EXPECT_EQ(topic_level("a/b+c#d"), "a_b_c_d");
   EXPECT_EQ(topic_level(""), "_");
   EXPECT_EQ(topic_level(std::string("x\x01y\x7f", 4)), "x_y_");
-  EXPECT_EQ(topic_level("Zo\xc3\xa9"), "Zo\xc3\xa9");        // é, valid UTF-8, kept
-  EXPECT_EQ(topic_level("\xff" "a"), "_a");                  // not UTF-8
-  EXPECT_EQ(topic_level("\xc0\xaf"), "__");                   // overlong '/'
-  EXPECT_EQ(topic_level("\xed\xa0\x80"), "___");              // a surrogate
+  EXPECT_EQ(topic_level("Zo\xc3\xa9"), "Zo\xc3\xa9");  // é, valid UTF-8, kept
+  EXPECT_EQ(topic_level("\xff"
+                        "a"),
+            "_a");                                                 // not UTF-8
+  EXPECT_EQ(topic_level("\xc0\xaf"), "__");                        // overlong '/'
+  EXPECT_EQ(topic_level("\xed\xa0\x80"), "___");                   // a surrogate
   EXPECT_EQ(topic_level("\xf0\x9f\x93\x8d"), "\xf0\x9f\x93\x8d");  // U+1F4CD, 4 bytes
-  EXPECT_EQ(topic_level("\xe2\x82"), "__");                   // truncated sequence
-  EXPECT_EQ(topic_level("a b$c"), "a b$c");                   // legal in a level
+  EXPECT_EQ(topic_level("\xe2\x82"), "__");                        // truncated sequence
+  EXPECT_EQ(topic_level("a b$c"), "a b$c");                        // legal in a level
 }
 
 TEST(MqttTopicPrefix, LevelsWithoutWildcardsOrEmptyOnes) {

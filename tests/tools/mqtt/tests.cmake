@@ -20,3 +20,8 @@ set_tests_properties(mqtt_live_netns PROPERTIES LABELS integration TIMEOUT 240 S
                                                 RESOURCE_LOCK cpu_heavy)
 ips_fuzz_target(mqtt_mapping tools/mqtt/mqtt_mapping_fuzz.cpp ips_mqtt_mapping
                 nlohmann_json::nlohmann_json)
+
+add_test(NAME mqtt_cli
+         COMMAND ${CMAKE_CURRENT_SOURCE_DIR}/tools/mqtt/mqtt_cli.sh ${CMAKE_RUNTIME_OUTPUT_DIRECTORY}
+                 ${PROJECT_SOURCE_DIR})
+set_tests_properties(mqtt_cli PROPERTIES LABELS integration TIMEOUT 60)
