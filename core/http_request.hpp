@@ -8,6 +8,7 @@
 // connection open for the next one. Pure: no I/O, never throws.
 #include <cstddef>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <string_view>
 
@@ -77,5 +78,9 @@ class HttpRequestParser {
 std::string http_response(int status, std::string_view content_type, std::string_view body,
                           bool keep_alive, std::string_view extra_headers = {});
 const char* http_status_text(int status);
+
+// The value of `name` in a query string or form body ("a=1&b=x%20y"): percent-decoded, '+' as a
+// space; the first occurrence; nullopt when absent or malformed (a bad %XX escape).
+std::optional<std::string> query_param(std::string_view query, std::string_view name);
 
 }  // namespace ips::http

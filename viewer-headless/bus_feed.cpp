@@ -30,6 +30,19 @@ const char* BusFeed::feed(const std::string& channel, const void* data, size_t s
     model_.on_health(health, host_utime);
     return nullptr;
   }
+  // The other typed channels: decoded or counted, in one way.
+  const auto typed = [&](auto msg, const char* type, auto on) -> const char* {
+    if (!decode_message(msg, data, size)) {
+      ++stats_.undecodable;
+      return type;
+    }
+    (model_.*on)(msg, host_utime);
+    return nullptr;
+  };
+  if (channel == channels_.altitude) return typed(altitude_t{}, "altitude_t", &ViewModel::on_altitude);
+  if (channel == channels_.zone_event)
+    return typed(zone_event_t{}, "zone_event_t", &ViewModel::on_zone_event);
+  if (channel == channels_.alert) return typed(alert_t{}, "alert_t", &ViewModel::on_alert);
   pose_t pose;
   if (decode_message(pose, data, size)) {
     ++stats_.poses;

@@ -31,6 +31,7 @@
 
 #include "core/channels.hpp"
 #include "core/cli.hpp"
+#include "core/device_text.hpp"
 #include "core/error_limiter.hpp"
 #include "core/http_server.hpp"
 #include "core/log_input.hpp"
@@ -92,6 +93,7 @@ struct RenderOptions {
   double at_s = -1;  // < 0: the end of the log
   double zoom = 1.0;
   bool force = false;
+  int floor = ips::kNoFloor;  // --floor: that floor's plan, zones and tracks
 };
 
 ips::view::FeedChannels feed_channels(const ips::CommonOptions& opts) {
@@ -99,6 +101,9 @@ ips::view::FeedChannels feed_channels(const ips::CommonOptions& opts) {
   // With --site the map's site is that file's: SITE messages are not taken.
   c.site = opts.site_path.empty() ? opts.channel(ips::channel::kSite) : "";
   c.health = opts.channel(ips::channel::kHealth);
+  c.altitude = opts.channel(ips::channel::kAltitude);
+  c.zone_event = opts.channel(ips::channel::kZoneEvent);
+  c.alert = opts.channel(ips::channel::kAlert);
   return c;
 }
 
@@ -139,6 +144,37 @@ class LogPlayback {
         done_text_(std::move(done_text)),
         start_(Clock::now()) {
     if (speed_ <= 0) advance();
+  }
+
+  // Stops the clock where it is / starts it again; a new speed from here.
+  void pause() {
+    base_s_ = elapsed_log_s();
+    paused_ = true;
+  }
+  void play() {
+    if (!paused_) return;
+    start_ = Clock::now();
+    paused_ = false;
+  }
+  void set_speed(double speed) {
+    base_s_ = elapsed_log_s();
+    start_ = Clock::now();
+    speed_ = speed;
+  }
+  bool paused() const { return paused_; }
+  double speed() const { return speed_; }
+  // Log seconds since the first event that the page shows.
+  double position_s() const {
+    if (!first_) return 0.0;
+    if (done_ || speed_ <= 0) return seconds();
+    return std::max(seconds(), elapsed_log_s());
+  }
+  // Jumps ahead to `to_s` log seconds after the first event: everything before it at once (a
+  // jump back is a new playback of the log: see serve()).
+  void skip_to(double to_s) {
+    base_s_ = std::max(to_s, 0.0);
+    start_ = Clock::now();
+    advance();
   }
 
   // Feeds every event due now.
@@ -197,7 +233,8 @@ class LogPlayback {
   }
   // Log seconds since the first event that the playback has reached.
   double elapsed_log_s() const {
-    return std::chrono::duration<double>(Clock::now() - start_).count() * speed_;
+    if (paused_) return base_s_;
+    return base_s_ + std::chrono::duration<double>(Clock::now() - start_).count() * speed_;
   }
   // The log time reached (saturating: log times are not trusted).
   utime_t cursor() const {
@@ -220,7 +257,23 @@ class LogPlayback {
   bool done_ = false;
   bool cut_ = false;
   bool readable_ = true;
+  bool paused_ = false;
+  double base_s_ = 0;  // log seconds reached when start_ was taken
 };
+
+// The first and last event times of a log (a pass over it, no decoding): the page's timeline.
+std::pair<utime_t, utime_t> log_span(const std::string& path) {
+  auto in = ips::LogInput::open(kProgram, path);
+  utime_t first = 0, last = 0;
+  bool any = false;
+  if (!in) return {0, 0};
+  while (const ips::LogEvent* e = in->next()) {
+    if (!any) first = e->timestamp_us;
+    last = std::max(last, e->timestamp_us);
+    any = true;
+  }
+  return {first, last};
+}
 
 bool loopback_address(const std::string& addr) { return addr.rfind("127.", 0) == 0; }
 
@@ -240,10 +293,22 @@ int serve(ips::CommonOptions opts, const ServeOptions& so, const MapOptions& mo)
   pin_site(model, opts);
 
   std::unique_ptr<LogPlayback> playback;
-  if (from_log) {
+  std::pair<utime_t, utime_t> span{0, 0};
+  // (Re)starts the log's playback from its beginning into a fresh model.
+  const auto start_playback = [&]() -> bool {
     auto in = ips::LogInput::open(kProgram, so.log);
-    if (!in) return 2;
-    playback = std::make_unique<LogPlayback>(std::move(in), feed, so.speed, "showing what was read");
+    if (!in) return false;
+    const double speed = playback ? playback->speed() : so.speed;
+    const bool paused = playback && playback->paused();
+    model = ViewModel(model.options());
+    pin_site(model, opts);
+    playback = std::make_unique<LogPlayback>(std::move(in), feed, speed, "showing what was read");
+    if (paused) playback->pause();
+    return true;
+  };
+  if (from_log) {
+    if (!start_playback()) return 2;
+    span = log_span(so.log);
     bool announced = false;
     node.add_timer(0.02, [&, announced]() mutable {
       playback->advance();
@@ -317,24 +382,32 @@ int serve(ips::CommonOptions opts, const ServeOptions& so, const MapOptions& mo)
       "'none'; frame-ancestors 'none'\r\nX-Content-Type-Options: nosniff\r\nReferrer-Policy: "
       "no-referrer\r\nCache-Control: no-cache\r\n";
   const std::string data_headers = "Cache-Control: no-store\r\nX-Content-Type-Options: nosniff\r\n";
-  for (const ips::view::WebAsset& a : ips::view::web_assets())
-    server.route("GET", std::string(a.path), [&a, &page_headers](const http::HttpRequest&,
-                                                                  const std::string&, utime_t) {
-      return http::HttpReply{200, std::string(a.content_type), std::string(a.body), page_headers};
-    });
-  server.route("GET", "/api/state",
-               [&](const http::HttpRequest& r, const std::string&, utime_t) {
-                 const bool trails = r.query.find("trails=0") == std::string::npos;
-                 return http::HttpReply{200, "application/json", model.json(now(), trails),
-                                        data_headers};
-               });
-  server.route("GET", "/api/info", [&](const http::HttpRequest&, const std::string&, utime_t) {
+  // What an update costs this process (building the state and queueing it for every page),
+  // for /api/info and the benchmark (scripts/bench-view).
+  struct UpdateCost {
+    int64_t count = 0;
+    double last_ms = 0, max_ms = 0, sum_ms = 0;
+  } cost;
+  // The playback's place for the page's timeline (log mode; null live).
+  const auto playback_json = [&]() -> std::string {
+    if (!playback) return "null";
+    const double duration = ips::view::seconds_between(span.second, span.first);
+    return "{\"first_utime\":" + std::to_string(span.first) +
+           ",\"duration_s\":" + ips::view::json_number(duration) +
+           ",\"position_s\":" + ips::view::json_number(std::min(playback->position_s(), duration)) +
+           ",\"speed\":" + ips::view::json_number(playback->speed()) +
+           ",\"paused\":" + (playback->paused() ? "true" : "false") +
+           ",\"done\":" + (playback->done() ? "true" : "false") + "}";
+  };
+  const auto info_json = [&]() {
     std::string j = "{\"program\":\"ips-view\",\"mode\":";
     j += from_log ? "\"log\"" : "\"live\"";
     j += ",\"log\":" + ips::view::json_string(so.log);
-    j += ",\"speed\":" + ips::view::json_number(so.speed);
+    j += ",\"speed\":" + ips::view::json_number(playback ? playback->speed() : so.speed);
     j += ",\"log_done\":";
     j += playback && playback->done() ? "true" : "false";
+    j += ",\"playback\":" + playback_json();
+    j += ",\"trail_s\":" + ips::view::json_number(model.options().trail_s);
     j += ",\"lcm_url\":" + ips::view::json_string(from_log ? "" : opts.lcm_url.empty()
                                                                        ? "(LCM default)"
                                                                        : opts.lcm_url);
@@ -345,9 +418,106 @@ int serve(ips::CommonOptions opts, const ServeOptions& so, const MapOptions& mo)
          ",\"refused\":" + std::to_string(hs.refused) + ",\"evicted\":" +
          std::to_string(hs.evicted) + ",\"header_timeouts\":" + std::to_string(hs.header_timeouts) +
          ",\"request_timeouts\":" + std::to_string(hs.request_timeouts) + "}";
-    j += ",\"streams_dropped\":" + std::to_string(server.streams_dropped()) + "}";
-    return http::HttpReply{200, "application/json", j, data_headers};
+    j += ",\"streams_dropped\":" + std::to_string(server.streams_dropped());
+    j += ",\"update_ms\":{\"count\":" + std::to_string(cost.count) +
+         ",\"last\":" + ips::view::json_number(cost.last_ms) +
+         ",\"mean\":" + ips::view::json_number(cost.count ? cost.sum_ms / static_cast<double>(cost.count) : 0.0) +
+         ",\"max\":" + ips::view::json_number(cost.max_ms) + "}}";
+    return j;
+  };
+  for (const ips::view::WebAsset& a : ips::view::web_assets()) {
+    if (a.path == "/") {
+      // The page with the state of now in it, so it draws before any event arrives (a
+      // screenshot, a slow link). json_string escapes < > &: no "</script>" can come out.
+      server.route("GET", "/", [&](const http::HttpRequest&, const std::string&, utime_t) {
+        std::string page(a.body);
+        const std::string mark = "<!--initial-state-->";
+        if (const auto at = page.find(mark); at != std::string::npos)
+          page.replace(at, mark.size(),
+                       "<script type=\"application/json\" id=\"initial-state\">{\"info\":" +
+                           info_json() + ",\"site\":" + model.site_json() +
+                           ",\"state\":" + model.json(now(), true) + "}</script>");
+        return http::HttpReply{200, std::string(a.content_type), page, page_headers};
+      });
+      continue;
+    }
+    server.route("GET", std::string(a.path), [&a, &page_headers](const http::HttpRequest&,
+                                                                  const std::string&, utime_t) {
+      return http::HttpReply{200, std::string(a.content_type), std::string(a.body), page_headers};
+    });
+  }
+  server.route("GET", "/api/state",
+               [&](const http::HttpRequest& r, const std::string&, utime_t) {
+                 const bool trails = r.query.find("trails=0") == std::string::npos;
+                 return http::HttpReply{200, "application/json", model.json(now(), trails),
+                                        data_headers};
+               });
+  server.route("GET", "/api/site", [&](const http::HttpRequest&, const std::string&, utime_t) {
+    return http::HttpReply{200, "application/json", model.site_json(), data_headers};
   });
+  server.route("GET", "/api/info", [&](const http::HttpRequest&, const std::string&, utime_t) {
+    return http::HttpReply{200, "application/json", info_json(), data_headers};
+  });
+  const auto bad_request = [&](const std::string& reason) {
+    return http::HttpReply{400, "application/json",
+                           "{\"status\":\"error\",\"reason\":" +
+                               ips::view::json_string(reason) + "}",
+                           data_headers};
+  };
+  const auto param = [](const http::HttpRequest& r, const char* name) {
+    auto v = http::query_param(r.query, name);
+    return v ? v : http::query_param(r.body, name);
+  };
+  // POST /api/alerts/ack?source=S&id=N: someone at a page has seen the alert.
+  server.route("POST", "/api/alerts/ack",
+               [&](const http::HttpRequest& r, const std::string&, utime_t) {
+                 const auto source = param(r, "source");
+                 const auto id = param(r, "id");
+                 int64_t n = 0;
+                 if (!source || !id || !ips::parse_integer(*id, n))
+                   return bad_request("expected source=PROCESS&id=N");
+                 if (!model.ack_alert(*source, n))
+                   return http::HttpReply{404, "application/json",
+                                          "{\"status\":\"error\",\"reason\":\"no such alert\"}",
+                                          data_headers};
+                 return http::HttpReply{200, "application/json", "{\"status\":\"ok\"}",
+                                        data_headers};
+               });
+  // POST /api/playback?action=pause|play|seek|speed[&t=S][&speed=X]: the log's timeline.
+  server.route("POST", "/api/playback",
+               [&](const http::HttpRequest& r, const std::string&, utime_t) {
+                 if (!playback)
+                   return http::HttpReply{409, "application/json",
+                                          "{\"status\":\"error\",\"reason\":\"the live bus "
+                                          "has no timeline\"}",
+                                          data_headers};
+                 const auto action = param(r, "action");
+                 double x = 0;
+                 if (action == "pause") {
+                   playback->pause();
+                 } else if (action == "play") {
+                   playback->play();
+                 } else if (action == "speed") {
+                   const auto v = param(r, "speed");
+                   if (!v || !ips::parse_decimal(*v, x) || !(x > 0 && x <= 1000))
+                     return bad_request("speed: expected a number in (0, 1000]");
+                   playback->set_speed(x);
+                 } else if (action == "seek") {
+                   const auto v = param(r, "t");
+                   if (!v || !ips::parse_decimal(*v, x) || !(x >= 0 && x <= 1e9))
+                     return bad_request("seek: expected t=SECONDS from the log's start");
+                   // Back: the log again from its start, into a fresh model.
+                   if (x < playback->position_s() && !start_playback())
+                     return http::HttpReply{500, "application/json",
+                                            "{\"status\":\"error\",\"reason\":\"cannot "
+                                            "reopen the log\"}",
+                                            data_headers};
+                   playback->skip_to(x);
+                 } else {
+                   return bad_request("action: pause, play, seek or speed");
+                 }
+                 return http::HttpReply{200, "application/json", playback_json(), data_headers};
+               });
   const ips::view::SvgOptions svg_options = mo.svg();
   server.route("GET", "/map.svg", [&](const http::HttpRequest&, const std::string&, utime_t) {
     return http::HttpReply{200, "image/svg+xml; charset=utf-8",
@@ -356,10 +526,17 @@ int serve(ips::CommonOptions opts, const ServeOptions& so, const MapOptions& mo)
   server.route("GET", "/favicon.ico", [](const http::HttpRequest&, const std::string&, utime_t) {
     return http::HttpReply{204, "text/plain", "", ""};
   });
-  // An update of the page: the snapshot without trails, then the map.
+  // An update of the page: the snapshot without trails (the page keeps its own), and in log
+  // mode the playback's place.
   const auto update = [&](const std::function<void(const char* event, const std::string&)>& send) {
-    send("state", model.json(now(), false));
-    send("map", ips::view::render_svg(model, svg_options));
+    const auto t0 = std::chrono::steady_clock::now();
+    send("state", model.json(now(), false, true));
+    if (playback) send("playback", playback_json());
+    cost.last_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0)
+                       .count();
+    cost.max_ms = std::max(cost.max_ms, cost.last_ms);
+    cost.sum_ms += cost.last_ms;
+    ++cost.count;
   };
   server.stream("/events", [&](http::HttpServer::StreamId id) {
     update([&](const char* event, const std::string& data) { server.send_event(id, event, data); });
@@ -461,7 +638,10 @@ int render(const ips::CommonOptions& opts, const RenderOptions& ro, const MapOpt
                   : ips::svg::format("after %g s of the live bus", ro.live_s);
   }
 
-  const std::string svg = ips::view::render_svg(model, mo.svg());
+  ips::view::SvgOptions svg_options = mo.svg();
+  svg_options.time_text = when;
+  svg_options.floor = ro.floor;
+  const std::string svg = ips::view::render_svg(model, svg_options);
   std::string error;
   if (png) {
     if (!ips::view::svg_to_png(svg, ro.out, ro.zoom, error)) {
@@ -544,6 +724,10 @@ int main(int argc, char** argv) {
   render_cmd->add_option("--zoom", ro.zoom, "PNG: scale factor")->check(CLI::Range(0.1, 20.0))
       ->capture_default_str();
   render_cmd->add_flag("--force", ro.force, "overwrite --out when it exists");
+  render_cmd->add_option("--floor", ro.floor,
+                         "draw this floor of the site: its plan, its zones and the tracks on it "
+                         "(default: the lowest floor's plan, everything)")
+      ->check(CLI::Range(-20, 500));
   for (CLI::App* a : {&app, render_cmd}) {
     a->add_option("--width", mo.width_px, "map size limit, pixels")
         ->check(CLI::Range(100.0, 20000.0))

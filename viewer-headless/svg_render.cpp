@@ -1,5 +1,6 @@
 #include "viewer-headless/svg_render.hpp"
 
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -121,6 +122,19 @@ MapFrame map_frame(const ViewModel& model, const SvgOptions& options) {
     }
     box.add(x, y);
   };
+  // The plans and zones belong to the site: the box holds them whole.
+  for (const Floor& fl : model.layout().floors) {
+    if (!fl.plan || fl.plan->data_uri.empty()) continue;
+    const FloorPlan& p = *fl.plan;
+    const Eigen::Rotation2Dd r(p.rotation_rad);
+    for (const Eigen::Vector2d& c : {Eigen::Vector2d(0, 0), Eigen::Vector2d(p.size_m.x(), 0),
+                                     Eigen::Vector2d(0, p.size_m.y()), p.size_m}) {
+      const Eigen::Vector2d w = p.origin + r * c;
+      box.add(w.x(), w.y());
+    }
+  }
+  for (const Zone& z : model.layout().zones)
+    for (const Eigen::Vector2d& v : z.polygon) box.add(v.x(), v.y());
   for (const auto& [k, t] : model.tracks()) {
     add_track_point(t.position.x(), t.position.y());
     if (options.trails)
@@ -147,6 +161,12 @@ MapFrame map_frame(const ViewModel& model, const SvgOptions& options) {
 std::string render_svg(const ViewModel& model, const SvgOptions& options) {
   const MapFrame f = map_frame(model, options);
   const auto channels = model.pose_channels();
+  // A track of another floor is not drawn (one of unknown floor is).
+  const auto on_floor = [&](const Track& t) {
+    if (options.floor == kNoFloor) return true;
+    const int fl = model.track_floor(t);
+    return fl == kNoFloor || fl == options.floor;
+  };
   const auto colours = channel_colours(channels);
   bool any_aoa = false;
   for (const Anchor& a : model.anchors()) any_aoa = any_aoa || a.kind == "ble_aoa";
@@ -196,12 +216,57 @@ std::string render_svg(const ViewModel& model, const SvgOptions& options) {
        "\"/></clipPath><marker id=\"aoa-arrow\" viewBox=\"0 0 8 8\" refX=\"7\" refY=\"4\" "
        "markerWidth=\"7\" markerHeight=\"7\" orient=\"auto\"><path d=\"M0,0 L8,4 L0,8 Z\" "
        "fill=\"#555\"/></marker></defs>\n";
+  // The plan of the floor drawn (or the lowest floor's), under everything.
+  const Floor* plan_floor = nullptr;
+  for (const Floor& fl : model.layout().floors) {
+    if (options.floor != kNoFloor ? fl.index == options.floor
+                                  : (plan_floor == nullptr && fl.plan.has_value()))
+      plan_floor = &fl;
+  }
+  if (plan_floor && plan_floor->plan && !plan_floor->plan->data_uri.empty()) {
+    const FloorPlan& p = *plan_floor->plan;
+    const Eigen::Vector2d q = f.to_px(p.origin.x(), p.origin.y());
+    const double w = p.size_m.x() * f.pixels_per_m, h = p.size_m.y() * f.pixels_per_m;
+    // data_uri holds only base64 characters after its checked prefix: nothing to escape.
+    s += "<image class=\"plan\" clip-path=\"url(#map-clip)\" x=\"" + px(q.x()) + "\" y=\"" +
+         px(q.y() - h) + "\" width=\"" + px(w) + "\" height=\"" + px(h) +
+         "\" preserveAspectRatio=\"none\" opacity=\"0.55\" transform=\"rotate(" +
+         format("%.3f", -p.rotation_rad * kRadToDeg) + " " + px(q.x()) + " " + px(q.y()) +
+         ")\" href=\"" + xml_text(p.data_uri) + "\"/>\n";
+  }
   s += axes(f);
+  if (!model.layout().zones.empty()) {
+    s += "<g class=\"zones\" clip-path=\"url(#map-clip)\">\n";
+    for (const Zone& z : model.layout().zones) {
+      if (options.floor != kNoFloor && z.floor && *z.floor != options.floor) continue;
+      std::string points;
+      Eigen::Vector2d centre = Eigen::Vector2d::Zero();
+      for (const Eigen::Vector2d& v : z.polygon) {
+        const Eigen::Vector2d q = f.to_px(v.x(), v.y());
+        points += (points.empty() ? "" : " ") + px(q.x()) + "," + px(q.y());
+        centre += q / static_cast<double>(z.polygon.size());
+      }
+      s += "<polygon class=\"zone\" points=\"" + points +
+           "\" fill=\"#ffc107\" fill-opacity=\"0.15\" stroke=\"#f9a825\" stroke-width=\"1.5\" "
+           "stroke-dasharray=\"5 3\"><title>" + label_text(z.name) + "</title></polygon>"
+           "<text class=\"zone-name\" x=\"" + px(centre.x()) + "\" y=\"" + px(centre.y()) +
+           "\" text-anchor=\"middle\" fill=\"#8d6e00\" font-size=\"11\">" + label_text(z.name) +
+           "</text>\n";
+    }
+    s += "</g>\n";
+  }
+  // The title and the time, visible above the map.
+  s += "<text class=\"title\" x=\"" + px(f.left) + "\" y=\"18\" font-size=\"14\" "
+       "font-weight=\"bold\" fill=\"#222\">" + title + "</text>\n";
+  if (!options.time_text.empty())
+    s += "<text class=\"map-time\" x=\"" + px(f.left + f.width_px()) + "\" y=\"18\" "
+         "text-anchor=\"end\" fill=\"#444\">" + xml_text(options.time_text) + "</text>\n";
 
   if (options.trails) {
     s += "<g class=\"trails\" clip-path=\"url(#map-clip)\" fill=\"none\" stroke-width=\"1.2\" "
          "stroke-opacity=\"0.6\">\n";
     for (const auto& [k, t] : model.tracks()) {
+      if (!on_floor(t)) continue;
       const auto pts = t.trail.points();
       if (pts.size() < 2) continue;
       std::string points;
@@ -221,7 +286,8 @@ std::string render_svg(const ViewModel& model, const SvgOptions& options) {
     s += "<g class=\"ellipses\" clip-path=\"url(#map-clip)\" fill=\"none\" stroke-width=\"1\" "
          "stroke-dasharray=\"4 2\">\n";
     for (const auto& [k, t] : model.tracks())
-      if (const auto e = covariance_ellipse(t.cov_xy, options.ellipse_sigma))
+      if (!on_floor(t)) continue;
+      else if (const auto e = covariance_ellipse(t.cov_xy, options.ellipse_sigma))
         s += ellipse_svg(*e, f.to_px(t.position.x(), t.position.y()), f.pixels_per_m,
                          colours.at(t.channel));
     s += "</g>\n";
@@ -251,6 +317,7 @@ std::string render_svg(const ViewModel& model, const SvgOptions& options) {
 
   s += "<g class=\"estimates\" clip-path=\"url(#map-clip)\">\n";
   for (const auto& [k, t] : model.tracks()) {
+    if (!on_floor(t)) continue;
     const std::string& colour = colours.at(t.channel);
     const Eigen::Vector2d q = f.to_px(t.position.x(), t.position.y());
     // Hollow while the estimator is not OK or coasting: the eye sees which tracks are live.
@@ -269,6 +336,22 @@ std::string render_svg(const ViewModel& model, const SvgOptions& options) {
     s += "<text class=\"no-data\" x=\"" + px(f.left + f.width_px() / 2) + "\" y=\"" +
          px(f.top + f.height_px() / 2) +
          "\" text-anchor=\"middle\" fill=\"#a00\">no site and no estimates yet</text>\n";
+
+  // A scale bar in the map's bottom left corner.
+  // About 80 px long: 1, 2 or 5 times a power of ten metres.
+  double bar_m = std::pow(10.0, std::floor(std::log10(80.0 / f.pixels_per_m)));
+  for (const double m : {1.0, 2.0, 5.0, 10.0})
+    if (m * bar_m * f.pixels_per_m >= 80.0) {
+      bar_m *= m;
+      break;
+    }
+  const double bar_px = bar_m * f.pixels_per_m;
+  const double bar_x = f.left + 10, bar_y = f.top + f.height_px() - 12;
+  s += "<g class=\"scale-bar\"><path d=\"M" + px(bar_x) + " " + px(bar_y) + "h" + px(bar_px) +
+       "M" + px(bar_x) + " " + px(bar_y - 5) + "v10M" + px(bar_x + bar_px) + " " +
+       px(bar_y - 5) + "v10\" stroke=\"#222\" stroke-width=\"2\" fill=\"none\"/><text x=\"" +
+       px(bar_x) + "\" y=\"" + px(bar_y - 8) + "\" fill=\"#222\">" +
+       (bar_m >= 1 ? format("%g m", bar_m) : format("%g cm", bar_m * 100)) + "</text></g>\n";
 
   s += "<g class=\"legend\">\n";
   for (size_t i = 0; i < legend.size(); ++i) {

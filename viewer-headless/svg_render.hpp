@@ -4,7 +4,8 @@
 // is large) with labelled axes, anchors with their ids (ble_aoa ones with an arrow along their
 // boresight, the anchor's yaw), and per channel and tag the latest estimate in the channel's
 // colour (channel_colours(): TRUTH black) with its covariance ellipse and its trail, and a legend
-// of channels. Pure: a ViewModel in, a string out; the same model gives the same bytes (tracks
+// of channels; the site's floor plan under it all, its zones, a visible title, the time and a
+// scale bar. Pure: a ViewModel in, a string out; the same model gives the same bytes (tracks
 // in sorted order, anchors in the site's order, fixed number formatting).
 //
 // Every string that came off the air (tag, anchor and channel ids, sources, the site name) goes
@@ -30,6 +31,10 @@ struct SvgOptions {
   double ellipse_sigma = 2.0;     // covariance ellipses at this many sigmas; 0: none
   bool trails = true;
   std::string title;  // empty: "ips-view" and the site's name
+  std::string time_text;  // drawn at the top right ("at 30.0 s of the log"); empty: none
+  // The floor drawn: its plan, its zones and the tracks on it (tracks of unknown floor too);
+  // kNoFloor: the lowest floor's plan, every zone and every track.
+  int floor = kNoFloor;
 };
 
 // The map's extent in metres and its mapping to pixels (one scale for x and y).

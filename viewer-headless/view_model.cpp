@@ -69,20 +69,84 @@ void key(std::string& out, const char* name) {
   out += "\":";
 }
 
+// The anchors as a JSON array.
+void append_anchors(std::string& s, const std::vector<Anchor>& anchors) {
+  s += '[';
+  for (size_t i = 0; i < anchors.size(); ++i) {
+    const Anchor& a = anchors[i];
+    if (i) s += ',';
+    s += '{';
+    key(s, "id");
+    s += json_string(a.id) + ',';
+    key(s, "kind");
+    s += json_string(a.kind) + ',';
+    key(s, "enabled");
+    s += a.enabled ? "true," : "false,";
+    key(s, "position");
+    s += '[' + json_number(a.position.x()) + ',' + json_number(a.position.y()) + ',' +
+         json_number(a.position.z()) + ']';
+    if (a.kind == "ble_aoa") {
+      s += ',';
+      key(s, "yaw_deg");
+      s += json_number(a.orientation_rad.z() * kRadToDeg);
+    }
+    s += '}';
+  }
+  s += ']';
+}
+
+std::string xy_json(const Eigen::Vector2d& p) {
+  return '[' + json_number(p.x()) + ',' + json_number(p.y()) + ']';
+}
+
+const char* zone_event_name(int8_t e) {
+  switch (e) {
+    case zone_event_t::EVENT_ENTER: return "enter";
+    case zone_event_t::EVENT_LEAVE: return "leave";
+    case zone_event_t::EVENT_DWELL: return "dwell";
+    default: return "unknown";
+  }
+}
+
+const char* alert_kind_name(int8_t k) {
+  switch (k) {
+    case alert_t::KIND_TAG_SILENT: return "tag_silent";
+    case alert_t::KIND_PROCESS_DEGRADED: return "process_degraded";
+    case alert_t::KIND_PROCESS_GONE: return "process_gone";
+    case alert_t::KIND_ZONE: return "zone";
+    default: return "unknown";
+  }
+}
+
+const char* severity_name(int8_t v) {
+  switch (v) {
+    case alert_t::SEVERITY_INFO: return "info";
+    case alert_t::SEVERITY_WARNING: return "warning";
+    case alert_t::SEVERITY_CRITICAL: return "critical";
+    default: return "unknown";
+  }
+}
+
 }  // namespace
 
-void Trail::push(const Eigen::Vector2d& p) {
+void Trail::push(utime_t t, const Eigen::Vector2d& p) {
   if (ring_.empty()) return;
-  ring_[next_] = p;
+  ring_[next_] = {t, p};
   next_ = (next_ + 1) % ring_.size();
   size_ = std::min(size_ + 1, ring_.size());
 }
 
 std::vector<Eigen::Vector2d> Trail::points() const {
   std::vector<Eigen::Vector2d> out;
-  out.reserve(size_);
+  if (size_ == 0) return out;
   const size_t cap = ring_.size();
-  for (size_t i = 0; i < size_; ++i) out.push_back(ring_[(next_ + cap - size_ + i) % cap]);
+  const utime_t newest = ring_[(next_ + cap - 1) % cap].t;
+  size_t first = 0;  // the oldest point within the window
+  while (first < size_ && seconds_between(newest, ring_[(next_ + cap - size_ + first) % cap].t) >
+                              window_s_)
+    ++first;
+  out.reserve(size_ - first);
+  for (size_t i = first; i < size_; ++i) out.push_back(ring_[(next_ + cap - size_ + i) % cap].p);
   return out;
 }
 
@@ -159,30 +223,6 @@ std::string json_number(double v) {
   return buf;
 }
 
-std::map<std::string, std::string> channel_colours(const std::vector<std::string>& channels) {
-  // Tableau 10 for the default channel names, so a channel keeps its colour as others come and
-  // go; the lighter Tableau 20 half for any other name.
-  static const std::map<std::string, std::string> kFixed = {
-      {channel::kTruth, "#000000"},         {channel::kPoseUwb, "#1f77b4"},
-      {channel::kPoseTdoa, "#ff7f0e"},      {channel::kPoseAoa, "#2ca02c"},
-      {channel::kPoseFused, "#d62728"},     {channel::kPoseIns, "#9467bd"},
-      {channel::kPosePdr, "#8c564b"},       {channel::kInsModule, "#17becf"},
-      {channel::kPoseUwbModule, "#bcbd22"},
-  };
-  static constexpr const char* kOthers[] = {"#7f7f7f", "#e377c2", "#aec7e8", "#ffbb78",
-                                            "#98df8a", "#ff9896", "#c5b0d5", "#c49c94",
-                                            "#f7b6d2", "#dbdb8d", "#9edae5"};
-  constexpr size_t kOthersSize = sizeof kOthers / sizeof kOthers[0];
-  std::map<std::string, std::string> colours;
-  const std::set<std::string> sorted(channels.begin(), channels.end());
-  size_t other = 0;
-  for (const auto& c : sorted) {
-    const auto it = kFixed.find(c);
-    colours[c] = it != kFixed.end() ? it->second : kOthers[other++ % kOthersSize];
-  }
-  return colours;
-}
-
 ViewModel::ViewModel(ViewOptions options) : options_(options) {}
 
 void ViewModel::on_site(const site_t& msg, utime_t host_utime) {
@@ -194,6 +234,11 @@ void ViewModel::on_site(const site_t& msg, utime_t host_utime) {
                       std::to_string(site.anchors.size()) + " anchors, more than " +
                       std::to_string(options_.max_anchors));
     anchors_ = std::move(site.anchors);
+    if (msg.site_yaml != site_yaml_) {
+      site_yaml_ = msg.site_yaml;
+      layout_ = std::move(site.layout);
+      ++site_version_;
+    }
     site_name_ = cut(site.name, options_.max_id_bytes);
     site_source_ = cut(msg.source, options_.max_id_bytes);
     site_host_utime_ = host_utime;
@@ -227,7 +272,7 @@ void ViewModel::on_pose(const std::string& channel, const pose_t& msg, utime_t h
     it = tracks_.emplace(std::move(k), Track{}).first;
     it->second.channel = channel;
     it->second.tag = msg.tag_id;
-    it->second.trail = Trail(options_.trail_length);
+    it->second.trail = Trail(options_.trail_length, options_.trail_s);
   }
   Track& t = it->second;
   t.source.assign(msg.source, 0, std::min(msg.source.size(), options_.max_id_bytes));
@@ -239,7 +284,7 @@ void ViewModel::on_pose(const std::string& channel, const pose_t& msg, utime_t h
   t.heading_rad = msg.heading_rad;
   t.status = msg.status;
   ++t.count;
-  t.trail.push(t.position.head<2>());
+  t.trail.push(host_utime, t.position.head<2>());
 }
 
 void ViewModel::on_health(const health_t& msg, utime_t host_utime) {
@@ -268,6 +313,103 @@ void ViewModel::on_health(const health_t& msg, utime_t host_utime) {
   if (p.health.version.size() > options_.max_error_bytes)
     p.health.version.resize(options_.max_error_bytes);
   p.host_utime = host_utime;
+}
+
+void ViewModel::on_altitude(const altitude_t& msg, utime_t host_utime) {
+  ++stats_.altitudes_in;
+  if (msg.tag_id.size() > options_.max_id_bytes) {
+    ++stats_.dropped_long_ids;
+    return;
+  }
+  auto it = heights_.find(msg.tag_id);
+  if (it == heights_.end()) {
+    if (!make_room(
+            heights_, options_.max_tags, host_utime, options_.expire_s,
+            [](const TagHeight& h) { return h.host_utime; }, stats_.expired)) {
+      ++stats_.dropped_too_many_tags;
+      return;
+    }
+    it = heights_.emplace(msg.tag_id, TagHeight{}).first;
+  }
+  TagHeight& h = it->second;
+  h.height_m = msg.height_m;
+  h.floor = msg.floor_valid && !msg.relative ? msg.floor : kNoFloor;
+  h.relative = msg.relative;
+  h.host_utime = host_utime;
+}
+
+void ViewModel::on_zone_event(const zone_event_t& msg, utime_t host_utime) {
+  (void)host_utime;
+  ++stats_.zone_events_in;
+  if (msg.tag_id.size() > options_.max_id_bytes || msg.zone_id.size() > options_.max_id_bytes) {
+    ++stats_.dropped_long_ids;
+    return;
+  }
+  if (options_.max_zone_events == 0) return;
+  zone_event_t e = msg;
+  e.zone_name = cut(e.zone_name, options_.max_id_bytes);
+  e.source = cut(e.source, options_.max_id_bytes);
+  e.pose_channel = cut(e.pose_channel, options_.max_id_bytes);
+  if (zone_events_.size() < options_.max_zone_events) {
+    zone_events_.push_back(std::move(e));
+  } else {
+    zone_events_[zone_next_] = std::move(e);
+    zone_next_ = (zone_next_ + 1) % zone_events_.size();
+  }
+}
+
+void ViewModel::on_alert(const alert_t& msg, utime_t host_utime) {
+  ++stats_.alerts_in;
+  if (msg.source.size() > options_.max_id_bytes) {
+    ++stats_.dropped_long_ids;
+    return;
+  }
+  const std::pair<std::string, int64_t> k{msg.source, msg.id};
+  auto it = alerts_.find(k);
+  if (it == alerts_.end()) {
+    if (alerts_.size() >= options_.max_alerts) {
+      // The oldest ended alert gives way; with every one still raised, the new one is dropped.
+      auto oldest = alerts_.end();
+      for (auto a = alerts_.begin(); a != alerts_.end(); ++a)
+        if (a->second.cleared_utime != 0 &&
+            (oldest == alerts_.end() || a->second.host_utime < oldest->second.host_utime))
+          oldest = a;
+      if (oldest == alerts_.end()) {
+        ++stats_.dropped_too_many_alerts;
+        return;
+      }
+      alerts_.erase(oldest);
+      ++stats_.expired;
+    }
+    it = alerts_.emplace(k, AlertRow{}).first;
+    it->second.raised_utime = msg.utime;
+  }
+  AlertRow& a = it->second;
+  a.last = msg;
+  a.last.subject = cut(a.last.subject, options_.max_id_bytes);
+  a.last.text = cut(a.last.text, options_.max_error_bytes);
+  a.host_utime = host_utime;
+  if (msg.state == alert_t::STATE_CLEARED) {
+    a.cleared_utime = msg.utime != 0 ? msg.utime : 1;
+  } else {
+    if (a.cleared_utime != 0) a.acked = false;  // raised again
+    a.cleared_utime = 0;
+    if (a.raised_utime == 0) a.raised_utime = msg.utime;
+  }
+}
+
+bool ViewModel::ack_alert(const std::string& source, int64_t id) {
+  auto it = alerts_.find({source, id});
+  if (it == alerts_.end()) return false;
+  it->second.acked = true;
+  return true;
+}
+
+int ViewModel::track_floor(const Track& t) const {
+  if (auto it = heights_.find(t.tag); it != heights_.end() && it->second.floor != kNoFloor)
+    return it->second.floor;
+  if (layout_.floors.empty() || !std::isfinite(t.position.z())) return kNoFloor;
+  return layout_.floor_of_height(t.position.z());
 }
 
 void ViewModel::on_bytes(const std::string& channel, size_t bytes, utime_t host_utime) {
@@ -342,7 +484,7 @@ std::vector<std::string> ViewModel::pose_channels() const {
   return out;
 }
 
-std::string ViewModel::json(utime_t now, bool with_trails) const {
+std::string ViewModel::json(utime_t now, bool with_trails, bool brief) const {
   const auto age = [&](utime_t t) { return json_number(seconds_between(now, t)); };
   std::string s;
   s.reserve(4096 + tracks_.size() * (256 + (with_trails ? 40 * options_.trail_length : 0)));
@@ -359,7 +501,9 @@ std::string ViewModel::json(utime_t now, bool with_trails) const {
     key(s, "source");
     s += json_string(site_source_) + ',';
     key(s, "age_s");
-    s += age(site_host_utime_) + '}';
+    s += age(site_host_utime_) + ',';
+    key(s, "version");
+    s += std::to_string(site_version_) + '}';
   } else {
     s += "null";
   }
@@ -369,28 +513,7 @@ std::string ViewModel::json(utime_t now, bool with_trails) const {
 
   s += ',';
   key(s, "anchors");
-  s += '[';
-  for (size_t i = 0; i < anchors_.size(); ++i) {
-    const Anchor& a = anchors_[i];
-    if (i) s += ',';
-    s += '{';
-    key(s, "id");
-    s += json_string(a.id) + ',';
-    key(s, "kind");
-    s += json_string(a.kind) + ',';
-    key(s, "enabled");
-    s += a.enabled ? "true," : "false,";
-    key(s, "position");
-    s += '[' + json_number(a.position.x()) + ',' + json_number(a.position.y()) + ',' +
-         json_number(a.position.z()) + ']';
-    if (a.kind == "ble_aoa") {
-      s += ',';
-      key(s, "yaw_deg");
-      s += json_number(a.orientation_rad.z() * kRadToDeg);
-    }
-    s += '}';
-  }
-  s += ']';
+  append_anchors(s, anchors_);
 
   const auto colours = channel_colours(pose_channels());
   s += ',';
@@ -409,16 +532,20 @@ std::string ViewModel::json(utime_t now, bool with_trails) const {
     s += json_string(t.source) + ',';
     key(s, "colour");
     s += json_string(colours.at(t.channel)) + ',';
-    key(s, "utime");
-    s += std::to_string(t.utime) + ',';
+    if (!brief) {
+      key(s, "utime");
+      s += std::to_string(t.utime) + ',';
+    }
     key(s, "age_s");
     s += age(t.host_utime) + ',';
     key(s, "position");
     s += '[' + json_number(t.position.x()) + ',' + json_number(t.position.y()) + ',' +
          json_number(t.position.z()) + "],";
-    key(s, "cov_xy");
-    s += "[[" + json_number(t.cov_xy(0, 0)) + ',' + json_number(t.cov_xy(0, 1)) + "],[" +
-         json_number(t.cov_xy(1, 0)) + ',' + json_number(t.cov_xy(1, 1)) + "]],";
+    if (!brief) {
+      key(s, "cov_xy");
+      s += "[[" + json_number(t.cov_xy(0, 0)) + ',' + json_number(t.cov_xy(0, 1)) + "],[" +
+           json_number(t.cov_xy(1, 0)) + ',' + json_number(t.cov_xy(1, 1)) + "]],";
+    }
     key(s, "ellipse_2sigma");
     if (const auto e = covariance_ellipse(t.cov_xy, 2.0))
       s += "{\"semi_major_m\":" + json_number(e->semi_major_m) +
@@ -426,19 +553,27 @@ std::string ViewModel::json(utime_t now, bool with_trails) const {
            ",\"angle_deg\":" + json_number(e->angle_rad * kRadToDeg) + "},";
     else
       s += "null,";
-    key(s, "heading_rad");
-    s += json_number(t.heading_rad) + ',';
-    key(s, "status");
-    s += std::to_string(t.status) + ',';
+    if (!brief) {
+      key(s, "heading_rad");
+      s += json_number(t.heading_rad) + ',';
+      key(s, "status");
+      s += std::to_string(t.status) + ',';
+    }
+    key(s, "floor");
+    const int floor = track_floor(t);
+    s += (floor == kNoFloor ? std::string("null") : std::to_string(floor)) + ',';
     key(s, "flags");
     s += '[';
     const auto names = status_names(t.status);
     for (size_t i = 0; i < names.size(); ++i) s += (i ? ",\"" : "\"") + names[i] + '"';
     s += "],";
     key(s, "count");
-    s += std::to_string(t.count) + ',';
-    key(s, "non_finite");
-    s += std::to_string(t.non_finite);
+    s += std::to_string(t.count);
+    if (!brief) {
+      s += ',';
+      key(s, "non_finite");
+      s += std::to_string(t.non_finite);
+    }
     if (with_trails) {
       s += ',';
       key(s, "trail");
@@ -525,6 +660,99 @@ std::string ViewModel::json(utime_t now, bool with_trails) const {
   s += ']';
 
   s += ',';
+  key(s, "heights");
+  s += '[';
+  first = true;
+  for (const auto& [tag, h] : heights_) {
+    if (!first) s += ',';
+    first = false;
+    s += '{';
+    key(s, "tag");
+    s += json_string(tag) + ',';
+    key(s, "height_m");
+    s += json_number(h.height_m) + ',';
+    key(s, "floor");
+    s += (h.floor == kNoFloor ? std::string("null") : std::to_string(h.floor)) + ',';
+    key(s, "relative");
+    s += h.relative ? "true," : "false,";
+    key(s, "age_s");
+    s += age(h.host_utime) + '}';
+  }
+  s += ']';
+
+  // Newest first.
+  s += ',';
+  key(s, "zone_events");
+  s += '[';
+  for (size_t i = 0; i < zone_events_.size(); ++i) {
+    const size_t n = zone_events_.size();
+    const zone_event_t& e = zone_events_[(zone_next_ + n - 1 - i) % n];
+    if (i) s += ',';
+    s += '{';
+    key(s, "utime");
+    s += std::to_string(e.utime) + ',';
+    key(s, "source");
+    s += json_string(e.source) + ',';
+    key(s, "tag");
+    s += json_string(e.tag_id) + ',';
+    key(s, "zone");
+    s += json_string(e.zone_id) + ',';
+    key(s, "zone_name");
+    s += json_string(e.zone_name) + ',';
+    key(s, "floor");
+    s += (e.floor == zone_event_t::FLOOR_ANY ? std::string("null") : std::to_string(e.floor)) +
+         ',';
+    key(s, "event");
+    s += std::string("\"") + zone_event_name(e.event) + "\",";
+    key(s, "dwell_s");
+    s += json_number(e.dwell_s) + ',';
+    key(s, "position");
+    s += '[' + json_number(e.position[0]) + ',' + json_number(e.position[1]) + ',' +
+         json_number(e.position[2]) + "],";
+    key(s, "alert");
+    s += e.alert ? "true}" : "false}";
+  }
+  s += ']';
+
+  // Raised ones first, newest first within each.
+  std::vector<const AlertRow*> alerts;
+  for (const auto& [k, a] : alerts_) alerts.push_back(&a);
+  std::stable_sort(alerts.begin(), alerts.end(), [](const AlertRow* a, const AlertRow* b) {
+    const bool ra = a->cleared_utime == 0, rb = b->cleared_utime == 0;
+    if (ra != rb) return ra;
+    return a->raised_utime > b->raised_utime;
+  });
+  s += ',';
+  key(s, "alerts");
+  s += '[';
+  for (size_t i = 0; i < alerts.size(); ++i) {
+    const AlertRow& a = *alerts[i];
+    if (i) s += ',';
+    s += '{';
+    key(s, "source");
+    s += json_string(a.last.source) + ',';
+    key(s, "id");
+    s += std::to_string(a.last.id) + ',';
+    key(s, "kind");
+    s += std::string("\"") + alert_kind_name(a.last.kind) + "\",";
+    key(s, "severity");
+    s += std::string("\"") + severity_name(a.last.severity) + "\",";
+    key(s, "raised");
+    s += a.cleared_utime == 0 ? "true," : "false,";
+    key(s, "raised_utime");
+    s += std::to_string(a.raised_utime) + ',';
+    key(s, "cleared_utime");
+    s += (a.cleared_utime == 0 ? std::string("null") : std::to_string(a.cleared_utime)) + ',';
+    key(s, "acked");
+    s += a.acked ? "true," : "false,";
+    key(s, "subject");
+    s += json_string(a.last.subject) + ',';
+    key(s, "text");
+    s += json_string(a.last.text) + '}';
+  }
+  s += ']';
+
+  s += ',';
   key(s, "stats");
   s += '{';
   const std::pair<const char*, int64_t> counters[] = {
@@ -533,11 +761,16 @@ std::string ViewModel::json(utime_t now, bool with_trails) const {
       {"poses_in", stats_.poses_in},
       {"non_finite_positions", stats_.non_finite_positions},
       {"health_in", stats_.health_in},
+      {"altitudes_in", stats_.altitudes_in},
+      {"zone_events_in", stats_.zone_events_in},
+      {"alerts_in", stats_.alerts_in},
       {"bytes_messages_in", stats_.bytes_messages_in},
       {"dropped_long_ids", stats_.dropped_long_ids},
       {"dropped_too_many_tracks", stats_.dropped_too_many_tracks},
       {"dropped_too_many_channels", stats_.dropped_too_many_channels},
       {"dropped_too_many_processes", stats_.dropped_too_many_processes},
+      {"dropped_too_many_alerts", stats_.dropped_too_many_alerts},
+      {"dropped_too_many_tags", stats_.dropped_too_many_tags},
       {"expired", stats_.expired},
   };
   first = true;
@@ -548,6 +781,71 @@ std::string ViewModel::json(utime_t now, bool with_trails) const {
     s += std::to_string(value);
   }
   s += "}}";
+  return s;
+}
+
+std::string ViewModel::site_json() const {
+  std::string s = "{";
+  key(s, "version");
+  s += std::to_string(site_version_) + ',';
+  key(s, "name");
+  s += (has_site_ ? json_string(site_name_) : std::string("null")) + ',';
+  key(s, "anchors");
+  append_anchors(s, anchors_);
+  s += ',';
+  key(s, "floors");
+  s += '[';
+  for (size_t i = 0; i < layout_.floors.size(); ++i) {
+    const Floor& f = layout_.floors[i];
+    if (i) s += ',';
+    s += '{';
+    key(s, "index");
+    s += std::to_string(f.index) + ',';
+    key(s, "name");
+    s += json_string(f.name) + ',';
+    key(s, "height_m");
+    s += json_number(f.height_m) + ',';
+    key(s, "plan");
+    if (f.plan && !f.plan->data_uri.empty()) {
+      s += '{';
+      key(s, "image");
+      s += json_string(f.plan->image) + ',';
+      key(s, "uri");
+      s += json_string(f.plan->data_uri) + ',';
+      key(s, "origin");
+      s += xy_json(f.plan->origin) + ',';
+      key(s, "size_m");
+      s += xy_json(f.plan->size_m) + ',';
+      key(s, "rotation_deg");
+      s += json_number(f.plan->rotation_rad * kRadToDeg) + '}';
+    } else {
+      s += "null";
+    }
+    s += '}';
+  }
+  s += "],";
+  key(s, "zones");
+  s += '[';
+  for (size_t i = 0; i < layout_.zones.size(); ++i) {
+    const Zone& z = layout_.zones[i];
+    if (i) s += ',';
+    s += '{';
+    key(s, "id");
+    s += json_string(z.id) + ',';
+    key(s, "name");
+    s += json_string(z.name) + ',';
+    key(s, "floor");
+    s += (z.floor ? std::to_string(*z.floor) : std::string("null")) + ',';
+    key(s, "alert");
+    s += std::string("{\"enter\":") + (z.alert.enter ? "true" : "false") +
+         ",\"leave\":" + (z.alert.leave ? "true" : "false") +
+         ",\"dwell\":" + (z.alert.dwell ? "true" : "false") + "},";
+    key(s, "polygon");
+    s += '[';
+    for (size_t k = 0; k < z.polygon.size(); ++k) s += (k ? "," : "") + xy_json(z.polygon[k]);
+    s += "]}";
+  }
+  s += "]}";
   return s;
 }
 

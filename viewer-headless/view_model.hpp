@@ -12,8 +12,11 @@
 #include <Eigen/Core>
 #include <cstddef>
 #include <cstdint>
+#include <ips/alert_t.hpp>
+#include <ips/altitude_t.hpp>
 #include <ips/health_t.hpp>
 #include <ips/pose_t.hpp>
+#include <ips/zone_event_t.hpp>
 #include <ips/site_t.hpp>
 #include <limits>
 #include <map>
@@ -24,6 +27,7 @@
 #include <utility>
 #include <vector>
 
+#include "core/channel_colours.hpp"
 #include "core/health_state.hpp"
 #include "core/site.hpp"
 #include "core/time.hpp"
@@ -31,11 +35,17 @@
 namespace ips::view {
 
 struct ViewOptions {
-  size_t trail_length = 200;   // positions kept per (channel, tag); 0: no trail
-  size_t max_tracks = 512;     // (channel, tag) pairs
+  // Trails are by time: the positions of the last trail_s seconds (of arrival time: the log's in
+  // a log), at most trail_length of them (a 50 Hz track keeps 40 s); 0: no trail.
+  double trail_s = 20.0;
+  size_t trail_length = 2000;
+  size_t max_tracks = 2048;    // (channel, tag) pairs
   size_t max_channels = 128;   // rows of the channel table
   size_t max_processes = 128;  // (source, host, pid) keys of HEALTH
   size_t max_anchors = 1000;   // a SITE with more is refused (counted as a bad site)
+  size_t max_zone_events = 200;  // the latest zone events kept
+  size_t max_alerts = 500;       // alerts kept (raised ones first; the oldest ended one gives way)
+  size_t max_tags = 1024;        // tags with an ALTITUDE kept
   // Tag ids, channel names and HEALTH sources and hosts longer than this are dropped (they are
   // keys); a pose's source is cut to this length, last_error and site errors to max_error_bytes.
   size_t max_id_bytes = 128;
@@ -54,27 +64,38 @@ struct ViewStats {
   int64_t poses_in = 0;
   int64_t non_finite_positions = 0;  // x or y NaN/inf: not stored
   int64_t health_in = 0;
+  int64_t altitudes_in = 0;
+  int64_t zone_events_in = 0;
+  int64_t alerts_in = 0;
   int64_t bytes_messages_in = 0;  // on_bytes calls
   int64_t dropped_long_ids = 0;   // a key (tag id, channel, source, host) over max_id_bytes
   int64_t dropped_too_many_tracks = 0;
   int64_t dropped_too_many_channels = 0;
   int64_t dropped_too_many_processes = 0;
+  int64_t dropped_too_many_alerts = 0;  // the table full of raised alerts
+  int64_t dropped_too_many_tags = 0;
   int64_t expired = 0;  // entries that gave way to a new key (see ViewOptions::expire_s)
 };
 
-// The last N horizontal positions of a track, in a ring allocated once.
+// The horizontal positions of a track with their times, in a ring allocated once: the newest
+// `capacity`, of which points() gives those of the last `window_s` seconds.
 class Trail {
  public:
   Trail() = default;
-  explicit Trail(size_t capacity) : ring_(capacity) {}
-  void push(const Eigen::Vector2d& p);
+  Trail(size_t capacity, double window_s) : ring_(capacity), window_s_(window_s) {}
+  void push(utime_t t, const Eigen::Vector2d& p);
   size_t size() const { return size_; }
   size_t capacity() const { return ring_.size(); }
-  // Oldest first.
+  // Oldest first, those within window_s of the newest.
   std::vector<Eigen::Vector2d> points() const;
 
  private:
-  std::vector<Eigen::Vector2d> ring_;
+  struct Point {
+    utime_t t;
+    Eigen::Vector2d p;
+  };
+  std::vector<Point> ring_;
+  double window_s_ = 0;
   size_t next_ = 0;
   size_t size_ = 0;
 };
@@ -93,6 +114,23 @@ struct Track {
   int64_t count = 0;   // poses stored
   int64_t non_finite = 0;
   Trail trail;
+};
+
+// A tag's height and floor from ALTITUDE.
+struct TagHeight {
+  double height_m = std::numeric_limits<double>::quiet_NaN();
+  int floor = kNoFloor;  // kNoFloor when the estimator gave none
+  bool relative = false;
+  utime_t host_utime = 0;
+};
+
+// One alert (alert_t), kept from RAISED to CLEARED and a while after.
+struct AlertRow {
+  alert_t last;               // the latest message of this (source, id)
+  utime_t raised_utime = 0;   // the RAISED message's time (its own utime)
+  utime_t cleared_utime = 0;  // 0 while raised
+  bool acked = false;
+  utime_t host_utime = 0;
 };
 
 // One row of the channel table at a given host time.
@@ -143,9 +181,7 @@ std::string json_string(std::string_view s);
 // A JSON number (up to 10 significant digits), null when not finite.
 std::string json_number(double v);
 
-// One colour per pose channel: a fixed colour for each default channel name (TRUTH black), the
-// rest of the palette for other channels in sorted order. Used by the SVG and the live page.
-std::map<std::string, std::string> channel_colours(const std::vector<std::string>& channels);
+using ips::channel_colours;  // core/channel_colours.hpp: the same colours in every program
 
 class ViewModel {
  public:
@@ -160,13 +196,28 @@ class ViewModel {
   // Any pose channel: TRUTH, POSE_*, INS_MODULE, or any other name.
   void on_pose(const std::string& channel, const pose_t& msg, utime_t host_utime);
   void on_health(const health_t& msg, utime_t host_utime);
+  void on_altitude(const altitude_t& msg, utime_t host_utime);
+  void on_zone_event(const zone_event_t& msg, utime_t host_utime);
+  void on_alert(const alert_t& msg, utime_t host_utime);
+  // Marks an alert as seen by someone at the page; false when there is no such alert.
+  bool ack_alert(const std::string& source, int64_t id);
   // Every message of every channel, for the channel table.
   void on_bytes(const std::string& channel, size_t bytes, utime_t host_utime);
 
   // The live page's snapshot: site, anchors (in the site's order), tracks, channels, processes
   // (each sorted by its key) and stats; ages in seconds before `now` (host time). Without
   // trails, each track's "trail" is left out (the live stream: the page keeps its own trails).
-  std::string json(utime_t now, bool with_trails = true) const;
+  // `brief`: each track without what the page does not read (utime, cov_xy, heading_rad, status,
+  // non_finite): the live stream's snapshot, about a third smaller.
+  std::string json(utime_t now, bool with_trails = true, bool brief = false) const;
+  // The site as the page draws it: name, anchors, floors with their plans (data URIs), zones.
+  // Changes only with site_version().
+  std::string site_json() const;
+  int64_t site_version() const { return site_version_; }
+  const SiteLayout& layout() const { return layout_; }
+  // The floor a track is on: its tag's ALTITUDE floor when it has one, else the site's floor at
+  // the track's height; kNoFloor without floors in the site or a height.
+  int track_floor(const Track& t) const;
 
   const ViewOptions& options() const { return options_; }
   const ViewStats& stats() const { return stats_; }
@@ -203,7 +254,14 @@ class ViewModel {
   std::string site_source_;
   utime_t site_host_utime_ = 0;
   std::vector<Anchor> anchors_;
+  SiteLayout layout_;
+  std::string site_yaml_;  // the text the layout and site_version_ are of
+  int64_t site_version_ = 0;
   std::string last_site_error_;
+  std::map<std::string, TagHeight> heights_;
+  std::vector<zone_event_t> zone_events_;  // ring of the latest, oldest at zone_next_
+  size_t zone_next_ = 0;
+  std::map<std::pair<std::string, int64_t>, AlertRow> alerts_;
   std::map<TrackKey, Track> tracks_;
   std::map<std::string, ChannelMeter> channels_;
   std::map<ProcessKey, Process> processes_;

@@ -141,5 +141,17 @@ TEST(HttpRequest, Responses) {
   EXPECT_STREQ(http_status_text(413), "Content Too Large");
 }
 
+TEST(HttpRequest, QueryParameters) {
+  EXPECT_EQ(query_param("a=1&b=x%20y+z", "b"), "x y z");
+  EXPECT_EQ(query_param("a=1&b=2&a=3", "a"), "1");  // the first
+  EXPECT_EQ(query_param("flag&a=1", "flag"), "");
+  EXPECT_EQ(query_param("source=ips%2Dzones&id=3", "source"), "ips-zones");
+  EXPECT_FALSE(query_param("a=1", "b").has_value());
+  EXPECT_FALSE(query_param("", "a").has_value());
+  EXPECT_FALSE(query_param("a=%4", "a").has_value());   // cut escape
+  EXPECT_FALSE(query_param("a=%zz", "a").has_value());  // not hex
+  EXPECT_EQ(query_param("a=%00b", "a"), std::string("\0b", 2));
+}
+
 }  // namespace
 }  // namespace ips::http

@@ -22,3 +22,15 @@ add_test(NAME view_http_starve_netns
                  ${CMAKE_RUNTIME_OUTPUT_DIRECTORY})
 set_tests_properties(view_http_starve_netns PROPERTIES LABELS integration TIMEOUT 240
                                                        SKIP_RETURN_CODE 77 RESOURCE_LOCK cpu_heavy)
+
+# ips-view as the lab's console (issue 24): a log written by view_console_log (two floors with
+# plans, zones, zone events, alerts) played to Debian's headless Chromium through chromedriver:
+# channel and tag toggles, zoom, follow, seek, floor change, zone event, alert and its
+# acknowledgement; screenshots in BUILD/test-output/viewer-console-*.png.
+add_executable(view_console_log viewer/view_console_log.cpp)
+target_link_libraries(view_console_log PRIVATE ips_core)
+ips_target_defaults(view_console_log)
+add_test(NAME view_console
+         COMMAND ${CMAKE_CURRENT_SOURCE_DIR}/viewer/view_console.sh ${CMAKE_RUNTIME_OUTPUT_DIRECTORY})
+set_tests_properties(view_console PROPERTIES LABELS integration TIMEOUT 180 SKIP_RETURN_CODE 77
+                                             RESOURCE_LOCK cpu_heavy)

@@ -260,7 +260,7 @@ TEST(ViewModel, PoseIsKeptPerChannelAndTagWithHorizontalCovariance) {
   EXPECT_EQ(m.pose_channels(), (std::vector<std::string>{"POSE_UWB", "TRUTH"}));
 }
 
-TEST(ViewModel, TrailKeepsTheLastNPositionsOldestFirst) {
+TEST(ViewModel, TrailKeepsTheLastSecondsOldestFirst) {
   ViewOptions o;
   o.trail_length = 5;
   ViewModel m(o);
@@ -272,11 +272,21 @@ TEST(ViewModel, TrailKeepsTheLastNPositionsOldestFirst) {
   for (int k = 0; k < 5; ++k) EXPECT_EQ(pts[k], Eigen::Vector2d(7.0 + k, -(7.0 + k))) << k;
   EXPECT_EQ(Eigen::Vector2d(t.position.head<2>()), Eigen::Vector2d(11.0, -11.0));
 
-  // The default is 200.
+  // By time: the last 20 s (default) of a 10 Hz track are 201 positions; a 50 Hz one keeps
+  // 20 s too (1001), not the same count.
   ViewModel d;
-  for (int i = 0; i < 250; ++i) d.on_pose("POSE_FUSED", pose("T1", i, 0), kT0 + i);
-  EXPECT_EQ(d.tracks().at({"POSE_FUSED", "T1"}).trail.size(), 200u);
-  EXPECT_EQ(d.tracks().at({"POSE_FUSED", "T1"}).trail.points().front().x(), 50.0);
+  for (int i = 0; i < 300; ++i) d.on_pose("POSE_FUSED", pose("T1", i, 0), kT0 + i * 100000);
+  for (int i = 0; i < 1500; ++i) d.on_pose("TRUTH", pose("T1", i, 0), kT0 + i * 20000);
+  EXPECT_EQ(d.tracks().at({"POSE_FUSED", "T1"}).trail.points().size(), 201u);
+  EXPECT_EQ(d.tracks().at({"POSE_FUSED", "T1"}).trail.points().front().x(), 99.0);
+  EXPECT_EQ(d.tracks().at({"TRUTH", "T1"}).trail.points().size(), 1001u);
+  EXPECT_EQ(d.tracks().at({"TRUTH", "T1"}).trail.points().back().x(), 1499.0);
+  // ... at most trail_length of them.
+  ViewOptions few;
+  few.trail_length = 100;
+  ViewModel f(few);
+  for (int i = 0; i < 300; ++i) f.on_pose("POSE_FUSED", pose("T1", i, 0), kT0 + i * 100000);
+  EXPECT_EQ(f.tracks().at({"POSE_FUSED", "T1"}).trail.points().size(), 100u);
 
   ViewOptions none;
   none.trail_length = 0;
@@ -545,7 +555,7 @@ TEST(ViewModel, JsonSnapshotHoldsAnchorsTracksChannelsAndStats) {
   const std::string j = m.json(kT0 + 1'500'000);
   ASSERT_TRUE(valid_json(j)) << j;
   EXPECT_EQ(j.rfind("{\"now_utime\":1700000001500000,", 0), 0u) << j;
-  EXPECT_NE(j.find("\"site\":{\"name\":\"lab\",\"source\":\"ips-sim\",\"age_s\":1.5}"),
+  EXPECT_NE(j.find("\"site\":{\"name\":\"lab\",\"source\":\"ips-sim\",\"age_s\":1.5,\"version\":1}"),
             std::string::npos)
       << j;
   EXPECT_NE(j.find("{\"id\":\"A1\",\"kind\":\"uwb\",\"enabled\":true,\"position\":[0,0,2.4]}"),
@@ -581,6 +591,169 @@ TEST(ViewModel, JsonSnapshotHoldsAnchorsTracksChannelsAndStats) {
   EXPECT_NE(j.find("\"site_error\":\"\""), std::string::npos);
 }
 
+const char* kTwoFloors = R"(name: house
+anchors:
+  - {id: A1, position: [0, 0, 2.4]}
+floors:
+  - {index: 0, name: Ground, height_m: 0}
+  - {index: 1, name: First, height_m: 3.5}
+zones:
+  - {id: hall, name: Hall <b>, floor: 1, polygon: [[0, 0], [2, 0], [2, 2]], alert: [enter]}
+plan_images:
+  g.png: "data:image/png;base64,iVBORw0KGgo="
+)";
+
+TEST(ViewModel, FloorsFromAltitudeElseFromTheTracksHeight) {
+  ViewModel m;
+  m.on_site(site_msg(kTwoFloors), kT0);
+  m.on_pose("POSE_FUSED", pose("T1", 1, 1, 4.7), kT0);
+  m.on_pose("POSE_FUSED", pose("T2", 1, 1, 1.2), kT0);
+  const auto& tracks = m.tracks();
+  EXPECT_EQ(m.track_floor(tracks.at({"POSE_FUSED", "T1"})), 1);  // 4.7 m: above floor 1's 3.5
+  EXPECT_EQ(m.track_floor(tracks.at({"POSE_FUSED", "T2"})), 0);
+  // ALTITUDE's floor wins over the height (a 2D estimate's z is the site's tag height).
+  altitude_t a{};
+  a.tag_id = "T2";
+  a.height_m = 4.6;
+  a.floor = 1;
+  a.floor_valid = true;
+  m.on_altitude(a, kT0);
+  EXPECT_EQ(m.track_floor(tracks.at({"POSE_FUSED", "T2"})), 1);
+  // A relative height has no floor.
+  a.tag_id = "T1";
+  a.floor = 0;
+  a.relative = true;
+  m.on_altitude(a, kT0);
+  EXPECT_EQ(m.track_floor(tracks.at({"POSE_FUSED", "T1"})), 1);
+  const std::string j = m.json(kT0);
+  ASSERT_TRUE(valid_json(j)) << j;
+  EXPECT_NE(j.find("\"tag\":\"T2\",\"height_m\":4.6,\"floor\":1,\"relative\":false"),
+            std::string::npos)
+      << j;
+  // Without floors in the site: none.
+  ViewModel flat;
+  flat.on_pose("POSE_FUSED", pose("T1", 1, 1, 4.7), kT0);
+  EXPECT_EQ(flat.track_floor(flat.tracks().at({"POSE_FUSED", "T1"})), kNoFloor);
+}
+
+TEST(ViewModel, SiteJsonHoldsFloorsPlansAndZonesAndChangesVersionOnlyWithTheSite) {
+  ViewModel m;
+  m.on_site(site_msg(kTwoFloors), kT0);
+  EXPECT_EQ(m.site_version(), 1);
+  m.on_site(site_msg(kTwoFloors), kT0 + 5'000'000);  // repeated: the same site
+  EXPECT_EQ(m.site_version(), 1);
+  const std::string j = m.site_json();
+  ASSERT_TRUE(valid_json(j)) << j;
+  EXPECT_NE(j.find("\"floors\":[{\"index\":0,\"name\":\"Ground\",\"height_m\":0,\"plan\":null},"
+                   "{\"index\":1,\"name\":\"First\",\"height_m\":3.5,\"plan\":null}]"),
+            std::string::npos)
+      << j;
+  // Markup from the site is escaped.
+  EXPECT_NE(j.find("\"name\":\"Hall \\u003cb\\u003e\",\"floor\":1,\"alert\":{\"enter\":true,"
+                   "\"leave\":false,\"dwell\":false},\"polygon\":[[0,0],[2,0],[2,2]]"),
+            std::string::npos)
+      << j;
+  std::string with_plan = kTwoFloors;
+  with_plan.replace(with_plan.find("height_m: 0}"), 12,
+                    "height_m: 0, plan: {image: g.png, origin: [1, 2], size_m: [10, 5], "
+                    "rotation_deg: 90}}");
+  m.on_site(site_msg(with_plan), kT0 + 6'000'000);
+  EXPECT_EQ(m.site_version(), 2);
+  EXPECT_NE(m.site_json().find("\"plan\":{\"image\":\"g.png\",\"uri\":\"data:image/png;base64,"
+                               "iVBORw0KGgo=\",\"origin\":[1,2],\"size_m\":[10,5],"
+                               "\"rotation_deg\":90}"),
+            std::string::npos)
+      << m.site_json();
+}
+
+zone_event_t zone_event(int8_t event, int64_t seq) {
+  zone_event_t e{};
+  e.utime = kT0 + seq;
+  e.source = "ips-zones";
+  e.seq = seq;
+  e.tag_id = "T1";
+  e.zone_id = "hall";
+  e.zone_name = "Hall";
+  e.floor = zone_event_t::FLOOR_ANY;
+  e.event = event;
+  e.pose_channel = "POSE_FUSED";
+  return e;
+}
+
+TEST(ViewModel, ZoneEventsNewestFirstAndBounded) {
+  ViewOptions o;
+  o.max_zone_events = 3;
+  ViewModel m(o);
+  for (int i = 0; i < 5; ++i)
+    m.on_zone_event(zone_event(i % 2 ? zone_event_t::EVENT_LEAVE : zone_event_t::EVENT_ENTER, i),
+                    kT0);
+  const std::string j = m.json(kT0);
+  ASSERT_TRUE(valid_json(j)) << j;
+  const auto at = [&](int seq) {
+    return j.find("\"utime\":" + std::to_string(kT0 + seq) + ",\"source\":\"ips-zones\"");
+  };
+  EXPECT_EQ(at(0), std::string::npos);
+  EXPECT_EQ(at(1), std::string::npos);
+  ASSERT_NE(at(4), std::string::npos) << j;
+  EXPECT_LT(at(4), at(3));
+  EXPECT_LT(at(3), at(2));
+  EXPECT_NE(j.find("\"floor\":null,\"event\":\"enter\""), std::string::npos) << j;
+  EXPECT_EQ(m.stats().zone_events_in, 5);
+}
+
+alert_t alert(int64_t id, int8_t state, int64_t utime) {
+  alert_t a{};
+  a.utime = utime;
+  a.source = "ips-zones";
+  a.id = id;
+  a.kind = alert_t::KIND_TAG_SILENT;
+  a.severity = alert_t::SEVERITY_WARNING;
+  a.state = state;
+  a.subject = "T" + std::to_string(id);
+  a.text = "silent";
+  return a;
+}
+
+TEST(ViewModel, AlertsRaisedClearedAckedAndBounded) {
+  ViewOptions o;
+  o.max_alerts = 2;
+  ViewModel m(o);
+  m.on_alert(alert(1, alert_t::STATE_RAISED, 100), kT0);
+  m.on_alert(alert(2, alert_t::STATE_RAISED, 200), kT0);
+  EXPECT_TRUE(m.ack_alert("ips-zones", 1));
+  EXPECT_FALSE(m.ack_alert("ips-zones", 9));
+  EXPECT_FALSE(m.ack_alert("other", 1));
+  // Both raised: a third has no room, and is counted.
+  m.on_alert(alert(3, alert_t::STATE_RAISED, 300), kT0);
+  EXPECT_EQ(m.stats().dropped_too_many_alerts, 1);
+  // Once one has ended, it gives way.
+  m.on_alert(alert(1, alert_t::STATE_CLEARED, 400), kT0);
+  m.on_alert(alert(3, alert_t::STATE_RAISED, 500), kT0);
+  std::string j = m.json(kT0);
+  ASSERT_TRUE(valid_json(j)) << j;
+  EXPECT_EQ(j.find("\"subject\":\"T1\""), std::string::npos) << j;
+  // Raised ones first, newest first.
+  const auto t3 = j.find("\"id\":3,\"kind\":\"tag_silent\",\"severity\":\"warning\",\"raised\":true,"
+                         "\"raised_utime\":500,\"cleared_utime\":null,\"acked\":false");
+  const auto t2 = j.find("\"id\":2,");
+  ASSERT_NE(t3, std::string::npos) << j;
+  EXPECT_LT(t3, t2);
+  // Cleared: its time kept; raised again: no longer acknowledged.
+  EXPECT_TRUE(m.ack_alert("ips-zones", 2));
+  m.on_alert(alert(2, alert_t::STATE_CLEARED, 600), kT0);
+  j = m.json(kT0);
+  EXPECT_NE(j.find("\"id\":2,\"kind\":\"tag_silent\",\"severity\":\"warning\",\"raised\":false,"
+                   "\"raised_utime\":200,\"cleared_utime\":600,\"acked\":true"),
+            std::string::npos)
+      << j;
+  m.on_alert(alert(2, alert_t::STATE_RAISED, 700), kT0);
+  j = m.json(kT0);
+  EXPECT_NE(j.find("\"id\":2,\"kind\":\"tag_silent\",\"severity\":\"warning\",\"raised\":true,"
+                   "\"raised_utime\":200,\"cleared_utime\":null,\"acked\":false"),
+            std::string::npos)
+      << j;
+}
+
 TEST(ViewModel, EmptyModelGivesValidJson) {
   const ViewModel m;
   const std::string j = m.json(kT0);
@@ -594,8 +767,10 @@ TEST(ChannelColours, DefaultChannelsKeepFixedColoursOthersShareThePalette) {
   EXPECT_EQ(c.at("TRUTH"), "#000000");
   EXPECT_EQ(c.at("POSE_UWB"), "#1f77b4");
   EXPECT_EQ(c.at("POSE_FUSED"), "#d62728");
-  EXPECT_EQ(c.at("AAA"), "#7f7f7f");  // others in sorted order
-  EXPECT_EQ(c.at("ZZZ"), "#e377c2");
+  // Other names: a colour of their own (core/channel_colours.hpp, by the name), the same
+  // whichever other channels are on the bus.
+  EXPECT_EQ(c.at("AAA"), channel_colours({"AAA", "TRUTH"}).at("AAA"));
+  EXPECT_EQ(c.at("ZZZ"), ips::channel_colour("ZZZ"));
   std::set<std::string> distinct;
   for (const auto& [ch, colour] : c) distinct.insert(colour);
   EXPECT_EQ(distinct.size(), c.size());
@@ -653,6 +828,31 @@ TEST(BusFeed, DecodesSitesHealthAndPosesOnAnyChannelAndCountsTheRest) {
   EXPECT_EQ(rows[2].channel, "POSE_UWB");
   EXPECT_EQ(rows[2].count, 2);
   EXPECT_EQ(rows[2].bytes, static_cast<int64_t>(p.size() + sizeof junk));
+}
+
+TEST(BusFeed, DecodesAltitudesZoneEventsAndAlertsOnTheirChannels) {
+  ViewModel m;
+  BusFeed feed(m, {});
+  altitude_t a{};
+  a.tag_id = "T1";
+  a.height_m = 4.0;
+  a.floor = 1;
+  a.floor_valid = true;
+  const auto ab = encoded(a);
+  EXPECT_EQ(feed.feed("ALTITUDE", ab.data(), ab.size(), kT0), nullptr);
+  const auto zb = encoded(zone_event(zone_event_t::EVENT_ENTER, 0));
+  EXPECT_EQ(feed.feed("ZONE_EVENT", zb.data(), zb.size(), kT0), nullptr);
+  const auto lb = encoded(alert(7, alert_t::STATE_RAISED, 1));
+  EXPECT_EQ(feed.feed("ALERT", lb.data(), lb.size(), kT0), nullptr);
+  // Another type on each: refused by the fingerprint, counted, named.
+  EXPECT_STREQ(feed.feed("ALTITUDE", zb.data(), zb.size(), kT0), "altitude_t");
+  EXPECT_STREQ(feed.feed("ZONE_EVENT", lb.data(), lb.size(), kT0), "zone_event_t");
+  EXPECT_STREQ(feed.feed("ALERT", ab.data(), ab.size(), kT0), "alert_t");
+  EXPECT_EQ(feed.stats().undecodable, 3);
+  EXPECT_EQ(m.stats().altitudes_in, 1);
+  EXPECT_EQ(m.stats().zone_events_in, 1);
+  EXPECT_EQ(m.stats().alerts_in, 1);
+  EXPECT_TRUE(m.ack_alert("ips-zones", 7));
 }
 
 TEST(BusFeed, AnEmptySiteChannelTakesNoSite) {

@@ -173,14 +173,26 @@ def endpoints(a):
     check(len(circles) >= len(a.channels.split(',')),
           f'/map.svg: {len(circles)} estimates drawn')
 
-    events = read_events(base, ['state', 'map'])
+    # The page draws the map itself: the stream carries the state (and in log mode the
+    # playback's place), not the SVG.
+    events = read_events(base, ['state', 'playback'] if a.mode == 'log' else ['state'])
     for name, data in events:
+        check(name != 'map', '/events still sends the map')
         if name == 'state':
             s = json.loads(data)
             check(s['tracks'] and all('trail' not in t for t in s['tracks']),
                   '/events state: no tracks, or trails in it')
-        elif name == 'map':
-            estimates_in_svg(data, '/events map')
+        elif name == 'playback':
+            p = json.loads(data)
+            check(p['duration_s'] > 0 and 0 <= p['position_s'] <= p['duration_s'],
+                  f'/events playback: {p}')
+    # The page holds the state it was served with.
+    status, headers, body = http(base + '/')
+    check(b'<script type="application/json" id="initial-state">{"info":' in body,
+          'GET /: no initial state in the page')
+    site = get_json(base + '/api/site')
+    check(site['name'] == 'lab' and len(site['anchors']) == 12 and 'floors' in site and
+          'zones' in site, f'/api/site: {str(site)[:300]}')
 
     status, headers, body = http(base + '/no/such/page')
     check(status == 404 and json.loads(body)['status'] == 'error', f'GET /no/such/page: {status}')
@@ -345,7 +357,8 @@ def browser(a):
                          "images: document.images.length, "
                          "scripts: document.querySelectorAll('script').length, "
                          "bold: document.querySelectorAll('b').length};")
-        check(injected == {'pwned': None, 'images': 0, 'scripts': 1, 'bold': 0},
+        # Two scripts: view.js and the page's initial state (JSON, not run).
+        check(injected == {'pwned': None, 'images': 0, 'scripts': 2, 'bold': 0},
               f'markup from a tag name reached the page: {injected}')
         print(f'tag {payload!r}: shown as text in {len(shown)} rows and {on_map} map labels; '
               f'nothing injected {injected}')
@@ -364,6 +377,157 @@ def browser(a):
         wd.quit()
 
 
+CONSOLE_MARKERS_JS = """
+return [...document.querySelectorAll('#map circle.estimate')].map(c => ({
+  channel: c.dataset.channel, tag: c.dataset.tag,
+  cx: parseFloat(c.getAttribute('cx')), cy: parseFloat(c.getAttribute('cy'))}));
+"""
+
+
+def console(a):
+    """The console of issue 24 on the log view_console_log wrote, served at --speed 1."""
+    wd = WebDriver(a.webdriver)
+    wd.start()
+    shots = []
+
+    def shot(name):
+        png = base64.b64decode(wd.s('GET', '/screenshot'))
+        check(png[:8] == b'\x89PNG\r\n\x1a\n' and len(png) > 10000, f'screenshot {name}: {len(png)} bytes')
+        path = f'{a.screenshots}-{name}.png'
+        with open(path, 'wb') as f:
+            f.write(png)
+        shots.append(path)
+
+    def click(css):
+        # Found and clicked in one script: the map and the tables are redrawn a few times a
+        # second, so an element handle kept between two WebDriver calls may be gone.
+        # A map marker takes the pointer (as a mouse press on it does), the rest a click.
+        done = wd.js("const e = document.querySelector(" + json.dumps(css) + ");"
+                     "if (!e) return false;"
+                     "if (e instanceof SVGElement) e.dispatchEvent(new PointerEvent('pointerdown',"
+                     " {bubbles: true, pointerId: 1}));"
+                     "else e.click();"
+                     "return true;")
+        check(done, f'nothing to click at {css}')
+
+    def seek(t):
+        wd.js(f"const s = document.getElementById('seek'); s.value = {t};"
+              "s.dispatchEvent(new Event('input')); s.dispatchEvent(new Event('change'));")
+        poll(lambda: wd.js("return window.ipsView.info.playback.position_s;"),
+             lambda p: p is not None and abs(p - t) < 3, 30, f'the page at {t} s of the log')
+
+    try:
+        wd.s('POST', '/url', {'url': a.url})
+        # The page drew the state it was served with (in the page: no event needed).
+        first = wd.js("return {initial: !!document.getElementById('initial-state'),"
+                      " svg: document.querySelectorAll('#map svg *').length};")
+        check(first['initial'] and first['svg'] > 5, f'the first snapshot is not drawn: {first}')
+        # Pause, then seek to 30 s: T1 on floor 1, T2 and T10 on floor 0.
+        click('#play')
+        poll(lambda: wd.js("return window.ipsView.info.playback.paused;"), bool, 30, 'paused')
+        seek(30)
+        markers = poll(lambda: wd.js(CONSOLE_MARKERS_JS), lambda m: len(m) >= 1, 30, 'markers at 30 s')
+        plan = wd.js("const i = document.querySelector('#map image.plan');"
+                     " return i ? [i.dataset.floor, i.getAttribute('href').slice(0, 26)] : null;")
+        check(plan is not None and plan[1] == 'data:image/svg+xml;base64,', f'no floor plan on the map: {plan}')
+        print(f'seek 30 s: {len(markers)} markers, floor plan of floor {plan[0]}')
+        # Natural sort of the tags table.
+        tags = wd.js("return [...document.querySelectorAll('#tags tbody tr')].map(r => r.dataset.tag);")
+        check(tags == ['T1', 'T2', 'T10'], f'tags table order {tags}')
+        # Follow T1 by clicking its marker on the map... it is on floor 1: choose it first.
+        wd.js("const f = document.getElementById('floor'); f.value = '1'; f.dispatchEvent(new Event('change'));")
+        poll(lambda: wd.js(CONSOLE_MARKERS_JS), lambda m: any(x['tag'] == 'T1' for x in m), 30, 'T1 on floor 1')
+        click('#map circle.estimate[data-tag="T1"]')
+        poll(lambda: wd.js("return document.getElementById('following').textContent;"),
+             lambda t: t == 'following T1', 30, 'following T1')
+        detail = wd.js("return [...document.querySelectorAll('#tag-estimates tbody tr')].map(r => r.dataset.channel);")
+        check(sorted(detail) == ['POSE_FUSED', 'POSE_UWB', 'TRUTH'], f'T1 detail rows {detail}')
+        check('follow=T1' in wd.js("return location.hash;"), 'the URL does not keep the followed tag')
+        shot('follow')
+        # Seek back to 8 s: the followed tag's floor becomes 0 (ALTITUDE), the plan follows; the
+        # zone event (enter, at 5 s) and its alert are listed.
+        seek(8)
+        poll(lambda: wd.js("return document.getElementById('floor').value;"), lambda v: v == '0', 30,
+             'the floor follows T1 down to 0')
+        poll(lambda: wd.js("const i = document.querySelector('#map image.plan'); return i && i.dataset.floor;"),
+             lambda v: v == '0', 30, 'the plan of floor 0')
+        events = poll(lambda: wd.js("return [...document.querySelectorAll('#zone-events tbody tr')]"
+                                    ".map(r => [r.dataset.tag, r.dataset.zone, r.dataset.event]);"),
+                      lambda e: ['T1', 'lab', 'enter'] in e, 30, 'the zone event T1 enter lab')
+        alerts = poll(lambda: wd.js("return [...document.querySelectorAll('#alerts li.alert')]"
+                                    ".map(l => [l.dataset.kind, l.className]);"),
+                      lambda x: any(k == 'zone' and 'raised' in c for k, c in x), 30, 'the zone alert')
+        badge = wd.js("const b = document.getElementById('alert-badge'); return b.hidden ? '' : b.textContent;")
+        check(badge == '1 alert', f'alert badge {badge!r}')
+        shot('zone-alert')
+        click('#alerts li.alert[data-kind="zone"] button')
+        poll(lambda: wd.js("return document.querySelector('#alerts li.alert[data-kind=\"zone\"]').className;"),
+             lambda c: 'acked' in c, 30, 'the alert acknowledged')
+        info = get_json(a.url.rstrip('/') + '/api/state?trails=0')
+        check(any(x['kind'] == 'zone' and x['acked'] for x in info['alerts']), 'the ack did not reach ips-view')
+        print(f'seek 8 s: floor 0, zone events {events}, alerts {alerts}, acked')
+        # Toggle a channel and a tag.
+        click('#legend label[data-channel="POSE_UWB"] input')
+        m = poll(lambda: wd.js(CONSOLE_MARKERS_JS), lambda m: m and not any(x['channel'] == 'POSE_UWB' for x in m),
+                 30, 'POSE_UWB hidden')
+        check('hide=POSE_UWB' in wd.js("return location.hash;"), 'the URL does not keep the hidden channel')
+        click('#tags tbody tr[data-tag="T2"] input')
+        m = poll(lambda: wd.js(CONSOLE_MARKERS_JS), lambda m: m and not any(x['tag'] == 'T2' for x in m),
+                 30, 'T2 hidden')
+        check(any(x['tag'] == 'T10' for x in m), f'T10 hidden too: {m}')
+        # Zoom: the anchors A1-A2 spread by the factor (the view follows T1, so measure distances).
+        def spread():
+            r = wd.js("return [...document.querySelectorAll('#map rect.anchor')].map(e => parseFloat(e.getAttribute('x')));")
+            return max(r) - min(r) if len(r) >= 2 else 0
+        before = spread()
+        click('#zoom-in')
+        after = poll(lambda: spread(), lambda v: v > before * 1.3, 30, f'zoom in from {before:.0f} px')
+        print(f'toggles: POSE_UWB and T2 hidden; zoom {before:.0f} -> {after:.0f} px')
+        shot('toggles')
+        frame = wd.js("return window.ipsView.lastFrameMs;")
+        print(f'last frame {frame:.1f} ms; screenshots {shots}')
+        logs = wd.s('POST', '/se/log', {'type': 'browser'})
+        errors = [l for l in logs if l.get('level') == 'SEVERE']
+        check(not errors, f'the browser logged errors: {errors}')
+    finally:
+        wd.quit()
+
+
+def bench(a):
+    """scripts/bench-view: the page's and ips-view's costs at a given load."""
+    wd = WebDriver(a.webdriver)
+    wd.start()
+    try:
+        wd.s('POST', '/url', {'url': a.url + '#floor=all' + (('&' + a.hash) if a.hash else '')})
+        time.sleep(a.seconds)  # a measurement over a fixed time, not a wait for a state
+        page = wd.js("const q = (v) => { const s = [...v].sort((x, y) => x - y);"
+                     " return s.length ? [s[Math.floor(s.length / 2)], s[Math.floor(s.length * 0.95)],"
+                     " s[s.length - 1], s.length] : [0, 0, 0, 0]; };"
+                     "return {draw: q(window.ipsView.frameMs), state: q(window.ipsView.stateMs),"
+                     " update: q(window.ipsView.updateMs),"
+                     " parts: window.ipsView.drawParts,"
+                     " markers: document.querySelectorAll('#map circle.estimate').length,"
+                     " rows: document.querySelectorAll('#tracks tbody tr').length};")
+        info = get_json(a.url.rstrip('/') + '/api/info')
+    finally:
+        wd.quit()
+    u = info['update_ms']
+    print(f'bench-view: {a.label}, {a.seconds} s in headless Chromium')
+    print(f'  ips-view, one page update (state JSON built and queued): mean {u["mean"]:.2f} ms, '
+          f'max {u["max"]:.2f} ms over {u["count"]} updates')
+    d, s = page['draw'], page['state']
+    print(f'  page, map draw: median {d[0]:.1f} ms, p95 {d[1]:.1f} ms, max {d[2]:.1f} ms ({d[3]} draws, '
+          f'{page["markers"]} estimates on the map)')
+    print(f'  page, the last draw by layer: ' + ', '.join(f'{k} {v:.1f} ms' for k, v in page['parts'].items()))
+    print(f'  page, state event (tables): median {s[0]:.1f} ms, p95 {s[1]:.1f} ms, max {s[2]:.1f} ms '
+          f'({s[3]} events, {page["rows"]} estimate rows)')
+    w = page['update']
+    print(f'  page, the main thread\'s work for an update (parse, tables, map, style and layout; '
+          f'not the paint): median {w[0]:.1f} ms, p95 {w[1]:.1f} ms, max {w[2]:.1f} ms ({w[3]} updates)')
+    print(f'  goals: page frame <= 16 ms (p95 {w[1]:.1f} ms), ips-view update <= 10 ms '
+          f'(max {u["max"]:.2f} ms)')
+
+
 def main():
     p = argparse.ArgumentParser(description=__doc__.split('\n')[0])
     sub = p.add_subparsers(dest='cmd', required=True)
@@ -377,8 +541,18 @@ def main():
     b.add_argument('--webdriver', required=True)
     b.add_argument('--screenshot', required=True)
     b.add_argument('--payload', required=True)
+    c = sub.add_parser('console')
+    c.add_argument('url')
+    c.add_argument('--webdriver', required=True)
+    c.add_argument('--screenshots', required=True, help='path prefix of the PNGs')
+    bp = sub.add_parser('bench')
+    bp.add_argument('url')
+    bp.add_argument('--webdriver', required=True)
+    bp.add_argument('--seconds', type=float, default=20)
+    bp.add_argument('--label', default='')
+    bp.add_argument('--hash', default='', help="more of the page's address, e.g. hide=TRUTH")
     a = p.parse_args()
-    endpoints(a) if a.cmd == 'endpoints' else browser(a)
+    {'endpoints': endpoints, 'browser': browser, 'console': console, 'bench': bench}[a.cmd](a)
 
 
 if __name__ == '__main__':

@@ -2,7 +2,8 @@
 // parser fed in pieces of varying size, with small limits) and every complete body as a Sensor
 // Logger JSON batch. Checks that nothing crashes or throws, that memory held stays within the
 // limits, that every refusal has a 4xx/5xx status and a printable reason, and that accepted
-// batches hold only finite readings with times >= 0.
+// batches hold only finite readings with times >= 0. Query strings and bodies also go through
+// query_param (ips-view's POST parameters).
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
@@ -61,6 +62,13 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     if (p.state() == HttpRequestParser::State::kRequest) {
       check(!p.request().target.empty() && p.request().target[0] == '/', "target");
       check_batch(p.request().body);
+      // ips-view's POST routes read their parameters from the query and the form body.
+      for (const char* name : {"source", "id", "action", "t", "speed"}) {
+        const auto q = ips::http::query_param(p.request().query, name);
+        const auto f = ips::http::query_param(p.request().body, name);
+        check(!q || q->size() <= p.request().query.size(), "query value");
+        check(!f || f->size() <= p.request().body.size(), "form value");
+      }
       p.next();
     }
   }

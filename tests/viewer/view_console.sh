@@ -1,0 +1,72 @@
+#!/usr/bin/env bash
+# ips-view as the lab's console (issue 24), in Debian's headless Chromium through chromedriver:
+# view_console_log writes a log (two floors with SVG plans carried in the site, zones, T1 walking
+# and climbing to floor 1, T2 going silent, zone events, alerts); `ips-view LOG` serves it at
+# its own pace on a free loopback port, and viewer_checks.py console pauses, seeks, follows T1
+# (clicking its marker), sees the floor change with the plan, the zone event and the alert,
+# acknowledges it, toggles a channel and a tag, zooms; screenshots go to
+# BUILD/test-output/viewer-console-*.png. Then `chromium --headless --dump-dom` and
+# `--screenshot` of the finished log's page (no script of ours driving it) show the map drawn
+# from the snapshot in the page. Every wait is for a condition, bounded (30 to 60 s).
+# Exit 77 (skipped) when Chromium or chromedriver is not installed.
+set -euo pipefail
+BIN=$(cd "$1" && pwd)
+HERE=$(cd "$(dirname "$0")" && pwd)
+for tool in chromium chromedriver; do
+  command -v "$tool" >/dev/null || { echo "SKIP: no $tool (scripts/install-deps installs it)"; exit 77; }
+done
+OUT="$(cd "$BIN/.." && pwd)/test-output"
+mkdir -p "$OUT"
+WORK=$(mktemp -d)
+pids=()
+cleanup() {
+  for p in "${pids[@]}"; do kill "$p" 2>/dev/null || true; done
+  wait 2>/dev/null || true
+  rm -rf "$WORK"
+}
+trap cleanup EXIT
+fail() { echo "FAIL: $*"; exit 1; }
+
+# Serves LOG with ips-view on a free port; sets $url once the first line says where.
+serve() {
+  local err=$1
+  shift
+  : >"$err"
+  "$BIN/ips-view" "$@" --port 0 --log-level warn 2>"$err" & pids+=($!)
+  local deadline=$((SECONDS + 60))
+  until grep -q '^ips-view: serving http://127.0.0.1:[0-9]*/' "$err"; do
+    [ "$SECONDS" -lt "$deadline" ] || fail "ips-view did not start: $(cat "$err")"
+    sleep 0.1
+  done
+  url=$(sed -n 's|^ips-view: serving \(http://127.0.0.1:[0-9]*/\).*|\1|p' "$err" | head -1)
+}
+
+"$BIN/view_console_log" "$WORK/console.lcm"
+serve "$WORK/view.err" "$WORK/console.lcm" --speed 1
+: >"$WORK/chromedriver.log"
+chromedriver --port=0 >"$WORK/chromedriver.log" 2>&1 & pids+=($!)
+deadline=$((SECONDS + 60))
+until grep -Eq 'ChromeDriver was started successfully on port [0-9]+' "$WORK/chromedriver.log"; do
+  [ "$SECONDS" -lt "$deadline" ] || fail "chromedriver did not start: $(cat "$WORK/chromedriver.log")"
+  sleep 0.1
+done
+driver_port=$(grep -Eo 'started successfully on port [0-9]+' "$WORK/chromedriver.log" | grep -Eo '[0-9]+$')
+python3 "$HERE/viewer_checks.py" console "$url" --webdriver "http://127.0.0.1:$driver_port" \
+  --screenshots "$OUT/viewer-console"
+
+# The finished log's page, loaded by Chromium alone: the map is drawn from the page's snapshot
+# (every floor: T1 on floor 1, T2 and T10 on floor 0).
+serve "$WORK/view-end.err" "$WORK/console.lcm" --speed 0
+url="${url}#floor=all"
+timeout 60 chromium --headless=new --no-sandbox --disable-gpu --window-size=1280,900 \
+  --dump-dom "$url" >"$WORK/dom.html" 2>/dev/null || fail "chromium --dump-dom failed"
+n=$(grep -o '<circle class="estimate' "$WORK/dom.html" | wc -l)
+[ "$n" -eq 5 ] || fail "the page drawn by Chromium alone has $n estimates on its map"
+grep -q '<image class="plan"' "$WORK/dom.html" || fail "the page drawn by Chromium alone has no floor plan"
+timeout 60 chromium --headless=new --no-sandbox --disable-gpu --window-size=1280,900 \
+  --screenshot="$OUT/viewer-console-screenshot.png" "$url" >/dev/null 2>&1 ||
+  fail "chromium --screenshot failed"
+size=$(stat -c %s "$OUT/viewer-console-screenshot.png")
+[ "$size" -gt 20000 ] || fail "the headless screenshot is only $size bytes"
+echo "ok: chromium alone: $n estimates and the floor plan drawn; screenshot $size bytes"
+echo "view_console: ok"
