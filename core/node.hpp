@@ -70,6 +70,8 @@ class Node {
   Node& operator=(const Node&) = delete;
 
   const std::string& name() const { return name_; }
+  // The host name HEALTH carries.
+  const std::string& host() const { return host_; }
   const CommonOptions& options() const { return opts_; }
   lcm::LCM& lcm() { return *lcm_; }
 

@@ -36,12 +36,6 @@ struct ClockMark {
   }
 };
 
-std::string this_host() {
-  char buf[256] = {0};
-  if (gethostname(buf, sizeof buf - 1) != 0) return "unknown";
-  return buf;
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -73,7 +67,7 @@ int main(int argc, char** argv) {
     ips::zones::ZoneMonitorOptions mo;
     mo.source = kProgram;
     mo.pose_channel = pose_channel;
-    mo.self_host = this_host();
+    mo.self_host = node.host();
     mo.self_pid = static_cast<int32_t>(getpid());
     ips::zones::ZoneMonitor monitor(
         mo, [&](const ips::zone_event_t& e) { node.publish(event_channel, e); },

@@ -253,28 +253,9 @@ void ZoneMonitor::emit_event(const Zone& zone, const std::string& tag_id, int8_t
   raise(alert_t::KIND_ZONE, alert_t::SEVERITY_WARNING, utime, tag_id + "/" + zone.id, text);
 }
 
-int64_t ZoneMonitor::raise(int8_t kind, int8_t severity, int64_t utime, const std::string& subject,
-                           const std::string& text) {
-  alert_t a;
-  a.utime = utime;
-  a.source = opts_.source;
-  a.seq = alert_seq_++;
-  a.id = next_alert_id_++;
-  a.kind = kind;
-  a.severity = severity;
-  a.state = alert_t::STATE_RAISED;
-  a.subject = subject;
-  a.text = text;
-  ++stats_.alerts_out;
-  ++alerts_raised_;
-  // A zone event's alert is raised only: nothing clears it.
-  if (kind != alert_t::KIND_ZONE) open_[a.id] = text;
-  on_alert_(a);
-  return a.id;
-}
-
-void ZoneMonitor::clear(int64_t id, int8_t kind, int8_t severity, int64_t utime,
-                        const std::string& subject, const std::string& text) {
+void ZoneMonitor::publish_alert(int64_t id, int8_t kind, int8_t severity, int8_t state,
+                                int64_t utime, const std::string& subject,
+                                const std::string& text) {
   alert_t a;
   a.utime = utime;
   a.source = opts_.source;
@@ -282,12 +263,27 @@ void ZoneMonitor::clear(int64_t id, int8_t kind, int8_t severity, int64_t utime,
   a.id = id;
   a.kind = kind;
   a.severity = severity;
-  a.state = alert_t::STATE_CLEARED;
+  a.state = state;
   a.subject = subject;
   a.text = text;
   ++stats_.alerts_out;
-  open_.erase(id);
   on_alert_(a);
+}
+
+int64_t ZoneMonitor::raise(int8_t kind, int8_t severity, int64_t utime, const std::string& subject,
+                           const std::string& text) {
+  const int64_t id = next_alert_id_++;
+  ++alerts_raised_;
+  // A zone event's alert is raised only: nothing clears it.
+  if (kind != alert_t::KIND_ZONE) open_[id] = text;
+  publish_alert(id, kind, severity, alert_t::STATE_RAISED, utime, subject, text);
+  return id;
+}
+
+void ZoneMonitor::clear(int64_t id, int8_t kind, int8_t severity, int64_t utime,
+                        const std::string& subject, const std::string& text) {
+  open_.erase(id);
+  publish_alert(id, kind, severity, alert_t::STATE_CLEARED, utime, subject, text);
 }
 
 void ZoneMonitor::check_tags() {
@@ -324,6 +320,7 @@ void ZoneMonitor::on_health(const health_t& h) {
   }
   ps.last_utime = h.utime;
   ps.state = h.state;
+  if (h.uptime_us >= s_to_utime(kWatchedUptimeS)) ps.watched = true;
   const bool process_degraded =
       site_ ? site_->layout.alerts.process_degraded : AlertRules{}.process_degraded;
   const bool bad =
@@ -353,7 +350,7 @@ void ZoneMonitor::check_processes() {
   if (!(silent_s > 0)) return;
   const int64_t limit = s_to_utime(silent_s);
   for (auto& [key, ps] : processes_) {
-    if (ps.gone_alert || processes_clock_ - ps.last_utime < limit) continue;
+    if (!ps.watched || ps.gone_alert || processes_clock_ - ps.last_utime < limit) continue;
     const auto at = key.rfind('@');
     const std::string who = printable(key.substr(0, at)) + " on " + printable(key.substr(at + 1));
     ps.gone_alert =

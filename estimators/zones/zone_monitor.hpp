@@ -36,6 +36,10 @@
 
 namespace ips::zones {
 
+// A process is watched for silence once it has run this long (HEALTH's uptime_us): a one-shot
+// tool (ips-bus-check --wait-for) says HEALTH at start and exit, and is not "gone" when it ends.
+inline constexpr double kWatchedUptimeS = 2.0;
+
 // An ALTITUDE older than this (against the pose) no longer gives the tag's floor.
 inline constexpr double kAltitudeFreshS = 5.0;
 
@@ -109,12 +113,15 @@ class ZoneMonitor {
     int64_t degraded_alert = 0;
     int8_t degraded_state = health_t::STATE_OK;
     int64_t gone_alert = 0;
+    bool watched = false;  // ran kWatchedUptimeS at least
   };
 
   void update_zone(const Zone& zone, TagState& tag, ZoneTrack& track, const pose_t& pose,
                    const Eigen::Vector3d& p, bool floor_known, int floor);
   void emit_event(const Zone& zone, const std::string& tag_id, int8_t kind, int64_t utime,
                   const Eigen::Vector3d& position, double dwell_s);
+  void publish_alert(int64_t id, int8_t kind, int8_t severity, int8_t state, int64_t utime,
+                     const std::string& subject, const std::string& text);
   int64_t raise(int8_t kind, int8_t severity, int64_t utime, const std::string& subject,
                 const std::string& text);
   void clear(int64_t id, int8_t kind, int8_t severity, int64_t utime, const std::string& subject,

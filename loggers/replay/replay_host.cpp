@@ -262,30 +262,20 @@ void ReplayHost::feed_zones_from_log(const std::string& channel, const uint8_t* 
                                      size_t size) {
   // What a hosted estimator regenerates reaches ips-zones through write().
   if (produced_channels_.count(channel)) return;
+  auto feed = [&](auto msg, auto&& use) {
+    if (!decode_message(msg, data, size)) {
+      ++stats_.undecodable;
+      return;
+    }
+    ++counts_[kZonesIndex].in;
+    use(msg);
+  };
   if (channel == opts_.zones_pose_channel) {
-    pose_t m;
-    if (!decode_message(m, data, size)) {
-      ++stats_.undecodable;
-      return;
-    }
-    ++counts_[kZonesIndex].in;
-    zones_->on_pose(m);
+    feed(pose_t{}, [this](const pose_t& m) { zones_->on_pose(m); });
   } else if (channel == channels_.channel(channel::kAltitude)) {
-    altitude_t m;
-    if (!decode_message(m, data, size)) {
-      ++stats_.undecodable;
-      return;
-    }
-    ++counts_[kZonesIndex].in;
-    zones_->on_altitude(m);
+    feed(altitude_t{}, [this](const altitude_t& m) { zones_->on_altitude(m); });
   } else if (channel == channels_.channel(channel::kHealth)) {
-    health_t m;
-    if (!decode_message(m, data, size)) {
-      ++stats_.undecodable;
-      return;
-    }
-    ++counts_[kZonesIndex].in;
-    zones_->on_health(m);
+    feed(health_t{}, [this](const health_t& m) { zones_->on_health(m); });
   }
 }
 

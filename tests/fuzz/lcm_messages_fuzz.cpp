@@ -87,6 +87,23 @@ void for_each_message(const uint8_t* data, size_t size, OnMessage&& on_message) 
   }
 }
 
+// The mixed sequence inputs: [kind byte][length byte][message bytes]...; `on_message(kind % kinds,
+// feed)` where feed(Msg{}, use) decodes the bytes as Msg and hands them to `use` when they decode.
+template <class OnMessage>
+void for_each_kind_message(const uint8_t* data, size_t size, uint8_t kinds,
+                           OnMessage&& on_message) {
+  size_t pos = 0;
+  while (pos + 2 < size) {
+    const uint8_t kind = static_cast<uint8_t>(data[pos] % kinds);
+    const size_t len = std::min<size_t>(data[pos + 1], size - pos - 2);
+    const uint8_t* m = data + pos + 2;
+    pos += 2 + len;
+    on_message(kind, [&](auto msg, auto&& use) {
+      if (ips::decode_message(msg, m, len)) use(msg);
+    });
+  }
+}
+
 template <class Msg>
 void decode_one(const uint8_t* data, size_t size) {
   Msg m;
@@ -209,15 +226,7 @@ void feed_fuse(const uint8_t* data, size_t size) {
       if (!std::isfinite(v)) throw std::logic_error("non-finite fused covariance published");
   });
   est.set_site(site);
-  size_t pos = 0;
-  while (pos + 2 < size) {
-    const uint8_t kind = data[pos] % 10;
-    const size_t len = std::min<size_t>(data[pos + 1], size - pos - 2);
-    const uint8_t* m = data + pos + 2;
-    pos += 2 + len;
-    auto feed = [&](auto msg, auto&& use) {
-      if (ips::decode_message(msg, m, len)) use(msg);
-    };
+  for_each_kind_message(data, size, 10, [&](uint8_t kind, auto&& feed) {
     switch (kind) {
       case 0: feed(ips::uwb_range_t{}, [&](const ips::uwb_range_t& x) { est.on_range(x); }); break;
       case 1: feed(ips::uwb_rx_t{}, [&](const ips::uwb_rx_t& x) { est.on_rx(x); }); break;
@@ -230,7 +239,7 @@ void feed_fuse(const uint8_t* data, size_t size) {
       case 8: feed(ips::pose_t{}, [&](const ips::pose_t& x) { est.on_pose(x, "aoa"); }); break;
       default: feed(ips::ble_aoa_t{}, [&](const ips::ble_aoa_t& x) { est.on_aoa(x); }); break;
     }
-  }
+  });
   est.flush();
 }
 
@@ -261,15 +270,7 @@ void feed_zones(const uint8_t* data, size_t size) {
         if (a.text.find('\n') != std::string::npos) throw std::logic_error("alert text lines");
       });
   monitor.set_site(site);
-  size_t pos = 0;
-  while (pos + 2 < size) {
-    const uint8_t kind = data[pos] % 3;
-    const size_t len = std::min<size_t>(data[pos + 1], size - pos - 2);
-    const uint8_t* m = data + pos + 2;
-    pos += 2 + len;
-    auto feed = [&](auto msg, auto&& use) {
-      if (ips::decode_message(msg, m, len)) use(msg);
-    };
+  for_each_kind_message(data, size, 3, [&](uint8_t kind, auto&& feed) {
     switch (kind) {
       case 0: feed(ips::pose_t{}, [&](const ips::pose_t& x) { monitor.on_pose(x); }); break;
       case 1:
@@ -277,7 +278,7 @@ void feed_zones(const uint8_t* data, size_t size) {
         break;
       default: feed(ips::health_t{}, [&](const ips::health_t& x) { monitor.on_health(x); }); break;
     }
-  }
+  });
 }
 }  // namespace
 

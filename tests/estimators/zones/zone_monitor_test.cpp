@@ -218,6 +218,7 @@ health_t health_of(double t_s, const std::string& source, int8_t state,
   h.source = source;
   h.host = "lab1";
   h.pid = 42;
+  h.uptime_us = 10'000'000 + static_cast<int64_t>(std::llround(t_s * 1e6));
   h.state = state;
   h.last_error = error;
   return h;
@@ -261,6 +262,13 @@ TEST(ZoneMonitor, AProcessWithoutHealthIsGoneUntilItReportsAgain) {
   o.self_pid = 7;
   Recorder r(o);
   r.monitor.set_site(site_of("alerts: {process_silent_s: 3}\n"));
+  // A one-shot tool: HEALTH at start and at exit, 0.5 s apart; never "gone".
+  health_t tool = health_of(0, "ips-bus-check", health_t::STATE_OK);
+  tool.uptime_us = 0;
+  r.monitor.on_health(tool);
+  tool.utime += 500'000;
+  tool.uptime_us = 500'000;
+  r.monitor.on_health(tool);
   for (int i = 0; i <= 10; ++i) {
     r.monitor.on_health(health_of(i, "ips-aoa", health_t::STATE_OK));
     if (i <= 2) r.monitor.on_health(health_of(i, "ips-pdr", health_t::STATE_OK));
@@ -281,7 +289,7 @@ TEST(ZoneMonitor, AProcessWithoutHealthIsGoneUntilItReportsAgain) {
   self.pid = 7;
   r.monitor.on_health(self);
   EXPECT_EQ(r.alerts.size(), 2u);
-  EXPECT_EQ(r.monitor.stats().health_in, 14 + 1);
+  EXPECT_EQ(r.monitor.stats().health_in, 2 + 14 + 1);
 }
 
 TEST(ZoneMonitor, BadPosesAreCountedNotUsed) {
