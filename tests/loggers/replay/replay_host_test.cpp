@@ -14,6 +14,7 @@
 #include <ips/pose_t.hpp>
 #include <ips/step_t.hpp>
 #include <ips/uwb_range_t.hpp>
+#include <ips/zone_event_t.hpp>
 #include <set>
 #include <ips/site_t.hpp>
 
@@ -318,6 +319,44 @@ TEST(ReplayHost, FuseIgnoresKeptEventsOfHostedProducers) {
   // Without uwb_tdoa hosted, the fusion reads the log's POSE_TDOA, and the old stream tells.
   keep.only = {"uwb_twr", "fuse"};
   EXPECT_NE(fused_only(replay(keep, 10, old_tdoa)), fused_only(replay(keep, 10)));
+}
+
+// ips-zones hosted with the fusion hears POSE_FUSED as it is written: its events follow the pose
+// that confirmed them (same log time), stamped earlier at the boundary crossing; hosted alone on
+// TRUTH it reads the log.
+TEST(ReplayHost, HostsZonesOnTheFusedPosesOrOnTheLog) {
+  ReplayOptions ro;
+  ro.only = {"fuse", "zones"};
+  const auto out = replay(ro, 25);
+  std::vector<zone_event_t> events;
+  for (size_t i = 0; i < out.size(); ++i) {
+    if (out[i].channel != "ZONE_EVENT") continue;
+    zone_event_t e;
+    ASSERT_GT(e.decode(out[i].data.data(), 0, static_cast<int>(out[i].data.size())), 0);
+    ASSERT_GT(i, 0u);
+    EXPECT_TRUE(out[i - 1].channel == "POSE_FUSED" || out[i - 1].channel == "ZONE_EVENT")
+        << out[i - 1].channel;
+    EXPECT_LE(e.utime, out[i].timestamp);
+    EXPECT_EQ(e.pose_channel, "POSE_FUSED");
+    events.push_back(e);
+  }
+  // The first lap (21 s): bench in and out, store in, dwell, out, entrance in and out; bench in.
+  ASSERT_EQ(events.size(), 8u);
+  const std::vector<std::pair<std::string, int8_t>> want = {
+      {"bench", zone_event_t::EVENT_ENTER},    {"bench", zone_event_t::EVENT_LEAVE},
+      {"store", zone_event_t::EVENT_ENTER},    {"store", zone_event_t::EVENT_DWELL},
+      {"store", zone_event_t::EVENT_LEAVE},    {"entrance", zone_event_t::EVENT_ENTER},
+      {"entrance", zone_event_t::EVENT_LEAVE}, {"bench", zone_event_t::EVENT_ENTER}};
+  for (size_t i = 0; i < want.size(); ++i) {
+    EXPECT_EQ(events[i].zone_id, want[i].first) << i;
+    EXPECT_EQ(events[i].event, want[i].second) << i;
+  }
+
+  ro.only = {"zones"};
+  ro.zones_pose_channel = "TRUTH";
+  int truth_events = 0;
+  for (const auto& o : replay(ro, 25)) truth_events += o.channel == "ZONE_EVENT";
+  EXPECT_EQ(truth_events, 8);
 }
 
 TEST(ReplayHost, SameEventsSameBytes) { EXPECT_EQ(replay({}), replay({})); }
