@@ -112,7 +112,8 @@ int main(int argc, char** argv) {
       if (open.empty()) {
         node.end_note("alerts");
       } else {
-        std::string text = std::to_string(open.size()) + " alerts open: " + open.front();
+        std::string text = std::to_string(open.size()) +
+                           (open.size() == 1 ? " alert open: " : " alerts open: ") + open.front();
         if (open.size() > 1) text += "; ...";
         node.report_note("alerts", text);
       }
