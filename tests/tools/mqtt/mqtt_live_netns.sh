@@ -11,8 +11,9 @@
 #  (c) --max-pose-hz 5: 100 poses in 1 s of one tag give about 5 messages, the last pose among
 #      them, and the others are counted as merged in HEALTH's note (sent + merged = 100);
 #  (d) with a password: a broker that refuses anonymous clients takes the bridge given
-#      --password-file, and refuses one given a wrong IPS_MQTT_PASSWORD: that one is degraded
-#      in HEALTH, "broker ...:1884 unreachable since ...", the broker's refusal in words;
+#      --password-file (with --retain-health: a client subscribing later gets the last HEALTH
+#      retained), and refuses one given a wrong IPS_MQTT_PASSWORD: that one is degraded in
+#      HEALTH, "broker ...:1884 unreachable since ...", the broker's refusal in words;
 #  (e) the broker killed mid-run while poses flow at 50 Hz: HEALTH degraded with "unreachable
 #      since ...: N messages not sent" within seconds, OK again within seconds of the restart,
 #      and the poses lost are only those published during the outage, and no more than the
@@ -129,10 +130,17 @@ pids+=($!)
 sub_ready "$WORK/auth.txt" 1884 pw/probe -u ips -P ips-secret
 t_auth=$(now)
 "$BIN/ips-mqtt" --port 1884 --username ips --password-file "$WORK/password" --topic-prefix pw \
-  --client-id ips-mqtt-pw 2>"$WORK/pw.err" & pw=$!; pids+=($pw)
+  --client-id ips-mqtt-pw --retain-health 2>"$WORK/pw.err" & pw=$!; pids+=($pw)
 IPS_MQTT_PASSWORD=wrong "$BIN/ips-mqtt" --port 1884 --username ips --topic-prefix pw \
   --client-id ips-mqtt-wrong 2>"$WORK/wrong.err" & wrong=$!; pids+=($wrong)
 check wait "$WORK/auth.txt" pw/lab/health/ips-mqtt --field pid=$pw --timeout 60
+# --retain-health: once the broker had one, a client that subscribes gets the last report at
+# once, flagged retained.
+check wait "$WORK/auth.txt" pw/lab/health/ips-site --timeout 30
+mosquitto_sub -h 127.0.0.1 -p 1884 -u ips -P ips-secret -t pw/lab/health/ips-site --retained-only \
+  -C 1 -W 30 -v >"$WORK/retained.txt" || fail "(d) no retained HEALTH of ips-site within 30 s"
+grep -q '^pw/lab/health/ips-site {.*"source":"ips-site"' "$WORK/retained.txt" ||
+  fail "(d) retained: $(cat "$WORK/retained.txt")"
 health --state 1 --after "$t_auth" --timeout 60 \
   --error "broker 127.0.0.1:1884 unreachable since" || fail "(d) the wrong password not said"
 grep -q "refused the connection: Connection Refused: not authorised" "$WORK/wrong.err" ||
