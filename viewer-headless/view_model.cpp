@@ -9,6 +9,7 @@
 #include <set>
 
 #include "core/channels.hpp"
+#include "core/message_names.hpp"
 
 namespace ips::view {
 namespace {
@@ -95,36 +96,10 @@ void append_anchors(std::string& s, const std::vector<Anchor>& anchors) {
   s += ']';
 }
 
+const char* name_or_unknown(const char* name) { return name ? name : "unknown"; }
+
 std::string xy_json(const Eigen::Vector2d& p) {
   return '[' + json_number(p.x()) + ',' + json_number(p.y()) + ']';
-}
-
-const char* zone_event_name(int8_t e) {
-  switch (e) {
-    case zone_event_t::EVENT_ENTER: return "enter";
-    case zone_event_t::EVENT_LEAVE: return "leave";
-    case zone_event_t::EVENT_DWELL: return "dwell";
-    default: return "unknown";
-  }
-}
-
-const char* alert_kind_name(int8_t k) {
-  switch (k) {
-    case alert_t::KIND_TAG_SILENT: return "tag_silent";
-    case alert_t::KIND_PROCESS_DEGRADED: return "process_degraded";
-    case alert_t::KIND_PROCESS_GONE: return "process_gone";
-    case alert_t::KIND_ZONE: return "zone";
-    default: return "unknown";
-  }
-}
-
-const char* severity_name(int8_t v) {
-  switch (v) {
-    case alert_t::SEVERITY_INFO: return "info";
-    case alert_t::SEVERITY_WARNING: return "warning";
-    case alert_t::SEVERITY_CRITICAL: return "critical";
-    default: return "unknown";
-  }
 }
 
 }  // namespace
@@ -703,7 +678,7 @@ std::string ViewModel::json(utime_t now, bool with_trails, bool brief) const {
     s += (e.floor == zone_event_t::FLOOR_ANY ? std::string("null") : std::to_string(e.floor)) +
          ',';
     key(s, "event");
-    s += std::string("\"") + zone_event_name(e.event) + "\",";
+    s += std::string("\"") + name_or_unknown(zone_event_name(e.event)) + "\",";
     key(s, "dwell_s");
     s += json_number(e.dwell_s) + ',';
     key(s, "position");
@@ -734,9 +709,9 @@ std::string ViewModel::json(utime_t now, bool with_trails, bool brief) const {
     key(s, "id");
     s += std::to_string(a.last.id) + ',';
     key(s, "kind");
-    s += std::string("\"") + alert_kind_name(a.last.kind) + "\",";
+    s += std::string("\"") + name_or_unknown(alert_kind_name(a.last.kind)) + "\",";
     key(s, "severity");
-    s += std::string("\"") + severity_name(a.last.severity) + "\",";
+    s += std::string("\"") + name_or_unknown(alert_severity_name(a.last.severity)) + "\",";
     key(s, "raised");
     s += a.cleared_utime == 0 ? "true," : "false,";
     key(s, "raised_utime");

@@ -4,6 +4,8 @@
 #include <ctime>
 #include <nlohmann/json.hpp>
 
+#include "core/health_state.hpp"
+#include "core/message_names.hpp"
 #include "core/track_limit.hpp"
 
 namespace ips::mqtt {
@@ -135,67 +137,20 @@ std::optional<Ellipse> two_sigma_ellipse(const double (&cov)[9]) {
   return e;
 }
 
-std::string zone_event_name(int8_t event) {
-  switch (event) {
-    case zone_event_t::EVENT_ENTER:
-      return "enter";
-    case zone_event_t::EVENT_LEAVE:
-      return "leave";
-    case zone_event_t::EVENT_DWELL:
-      return "dwell";
-    default:
-      return unknown(event);
-  }
-}
-std::string alert_kind_name(int8_t kind) {
-  switch (kind) {
-    case alert_t::KIND_TAG_SILENT:
-      return "tag_silent";
-    case alert_t::KIND_PROCESS_DEGRADED:
-      return "process_degraded";
-    case alert_t::KIND_PROCESS_GONE:
-      return "process_gone";
-    case alert_t::KIND_ZONE:
-      return "zone";
-    default:
-      return unknown(kind);
-  }
-}
+// The names of core/message_names.hpp (and core/health_state.hpp), with the number of a value
+// the message definition does not have: "unknown(7)".
+namespace {
+std::string named(const char* name, int value) { return name ? name : unknown(value); }
+}  // namespace
+std::string zone_event_name(int8_t event) { return named(ips::zone_event_name(event), event); }
+std::string alert_kind_name(int8_t kind) { return named(ips::alert_kind_name(kind), kind); }
 std::string alert_severity_name(int8_t severity) {
-  switch (severity) {
-    case alert_t::SEVERITY_INFO:
-      return "info";
-    case alert_t::SEVERITY_WARNING:
-      return "warning";
-    case alert_t::SEVERITY_CRITICAL:
-      return "critical";
-    default:
-      return unknown(severity);
-  }
+  return named(ips::alert_severity_name(severity), severity);
 }
-std::string alert_state_name(int8_t state) {
-  switch (state) {
-    case alert_t::STATE_RAISED:
-      return "raised";
-    case alert_t::STATE_CLEARED:
-      return "cleared";
-    default:
-      return unknown(state);
-  }
-}
+std::string alert_state_name(int8_t state) { return named(ips::alert_state_name(state), state); }
 std::string health_state_name(int8_t state) {
-  switch (state) {
-    case health_t::STATE_OK:
-      return "ok";
-    case health_t::STATE_DEGRADED:
-      return "degraded";
-    case health_t::STATE_ERROR:
-      return "error";
-    case health_t::STATE_STARTING:
-      return "starting";
-    default:
-      return unknown(state);
-  }
+  const std::string name = ips::health_state_name(state);
+  return name == "unknown" ? unknown(state) : name;
 }
 
 std::string pose_json(const pose_t& p, const std::string& channel) {
