@@ -12,25 +12,7 @@ const char* BusFeed::feed(const std::string& channel, const void* data, size_t s
                           utime_t host_utime) {
   ++stats_.messages;
   model_.on_bytes(channel, size, host_utime);
-  if (channel == channels_.site) {
-    site_t site;
-    if (!decode_message(site, data, size)) {
-      ++stats_.undecodable;
-      return "site_t";
-    }
-    model_.on_site(site, host_utime);
-    return nullptr;
-  }
-  if (channel == channels_.health) {
-    health_t health;
-    if (!decode_message(health, data, size)) {
-      ++stats_.undecodable;
-      return "health_t";
-    }
-    model_.on_health(health, host_utime);
-    return nullptr;
-  }
-  // The other typed channels: decoded or counted, in one way.
+  // Each typed channel: decoded into the model, or counted and its type named.
   const auto typed = [&](auto msg, const char* type, auto on) -> const char* {
     if (!decode_message(msg, data, size)) {
       ++stats_.undecodable;
@@ -39,6 +21,8 @@ const char* BusFeed::feed(const std::string& channel, const void* data, size_t s
     (model_.*on)(msg, host_utime);
     return nullptr;
   };
+  if (channel == channels_.site) return typed(site_t{}, "site_t", &ViewModel::on_site);
+  if (channel == channels_.health) return typed(health_t{}, "health_t", &ViewModel::on_health);
   if (channel == channels_.altitude) return typed(altitude_t{}, "altitude_t", &ViewModel::on_altitude);
   if (channel == channels_.zone_event)
     return typed(zone_event_t{}, "zone_event_t", &ViewModel::on_zone_event);

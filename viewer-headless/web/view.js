@@ -69,6 +69,16 @@
   }
   // Puts `rows` in the table, replacing only the rows that differ: an unchanged row is left
   // alone, so the browser has nothing to lay out again for it.
+  function swatch(colour) {
+    const dot = document.createElement('span');
+    dot.className = 'swatch';
+    dot.style.background = colour;
+    return dot;
+  }
+  // A cell with the channel's colour and name.
+  function channelCell(row, t) {
+    cell(row, '').append(swatch(t.colour), document.createTextNode(t.channel));
+  }
   function fill(tbody, rows) {
     const old = tbody.rows;
     if (old.length !== rows.length) { tbody.replaceChildren(...rows); return; }
@@ -355,11 +365,7 @@
       .sort((a, b) => natural(a.channel, b.channel)).map((t) => {
         const tr = document.createElement('tr');
         tr.dataset.channel = t.channel;
-        const ch = cell(tr, '');
-        const dot = document.createElement('span');
-        dot.className = 'swatch';
-        dot.style.background = t.colour;
-        ch.append(dot, document.createTextNode(t.channel));
+        channelCell(tr, t);
         cell(tr, fixed(t.position[0], 2), 'num');
         cell(tr, fixed(t.position[1], 2), 'num');
         cell(tr, isFlat(t) ? '-' : fixed(t.position[2], 2), 'num');
@@ -405,11 +411,7 @@
       tr.dataset.tag = t.tag;
       if (t.age_s > STALE_S) tr.className = 'stale';
       cell(tr, t.tag, 'tag', t.tag);
-      const ch = cell(tr, '');
-      const dot = document.createElement('span');
-      dot.className = 'swatch';
-      dot.style.background = t.colour;
-      ch.append(dot, document.createTextNode(t.channel));
+      channelCell(tr, t);
       cell(tr, fixed(t.position[0], 2), 'num x');
       cell(tr, fixed(t.position[1], 2), 'num y');
       cell(tr, isFlat(t) ? '-' : fixed(t.position[2], 2), 'num z');
@@ -471,10 +473,7 @@
         writeHash();
         refresh();
       });
-      const dot = document.createElement('span');
-      dot.className = 'swatch';
-      dot.style.background = colour;
-      label.append(box, dot, document.createTextNode(ch));
+      label.append(box, swatch(colour), document.createTextNode(ch));
       return label;
     }));
   }
