@@ -60,8 +60,8 @@ serve "$WORK/view-end.err" "$WORK/console.lcm" --speed 0
 url="${url}#floor=all"
 timeout 60 chromium --headless=new --no-sandbox --disable-gpu --window-size=1280,900 \
   --dump-dom "$url" >"$WORK/dom.html" 2>/dev/null || fail "chromium --dump-dom failed"
-n=$(grep -o '<circle class="estimate' "$WORK/dom.html" | wc -l)
-[ "$n" -eq 5 ] || fail "the page drawn by Chromium alone has $n estimates on its map"
+n=$(grep -Eo '<div id="map"[^>]* data-estimates="[0-9]+"' "$WORK/dom.html" | grep -Eo '[0-9]+"$' | tr -d '"')
+[ "${n:-0}" -eq 5 ] || fail "the page drawn by Chromium alone has $n estimates on its map"
 grep -q '<image class="plan"' "$WORK/dom.html" || fail "the page drawn by Chromium alone has no floor plan"
 timeout 60 chromium --headless=new --no-sandbox --disable-gpu --window-size=1280,900 \
   --screenshot="$OUT/viewer-console-screenshot.png" "$url" >/dev/null 2>&1 ||

@@ -256,10 +256,14 @@ return [...document.querySelectorAll('#tracks tbody tr')].map(r => ({
   channel: r.dataset.channel, tag: r.dataset.tag,
   cells: [...r.cells].map(c => c.textContent)}));
 """
+# The estimates the page drew on its canvas (window.ipsView.drawn), each with the canvas's own
+# pixel at its centre: a marker the page lists but did not paint has alpha 0 there.
 MARKERS_JS = """
-return [...document.querySelectorAll('#map circle.estimate')].map(c => ({
-  title: c.querySelector('title') ? c.querySelector('title').textContent : '',
-  cx: parseFloat(c.getAttribute('cx')), cy: parseFloat(c.getAttribute('cy'))}));
+const c = document.getElementById('map-canvas'), r = window.devicePixelRatio || 1;
+const ctx = c.getContext('2d');
+return window.ipsView.drawn.map(d => ({
+  channel: d.channel, tag: d.tag, title: d.channel + ' ' + d.tag + ' (', cx: d.x, cy: d.y,
+  alpha: ctx.getImageData(Math.round(d.x * r), Math.round(d.y * r), 1, 1).data[3]}));
 """
 
 
@@ -283,7 +287,9 @@ def xy(rows, channel, tag):
 
 def marker(markers, channel, tag):
     for m in markers:
-        if m['title'].startswith(f'{channel} {tag} ('):
+        if m['channel'] == channel and m['tag'] == tag:
+            check(m['alpha'] > 0, f'{channel} {tag} is listed as drawn at {m["cx"]:.0f}, {m["cy"]:.0f} '
+                  'but the canvas is empty there')
             return m['cx'], m['cy']
     return None
 
@@ -348,10 +354,9 @@ def browser(a):
         check(all(v == payload for v in shown), f'the tag shows as {shown}')
         # The map cuts long labels to "<start>...".
         on_map = wd.js("const p = " + json.dumps(payload) + ";"
-                       "return [...document.querySelectorAll('#map text.tag-id')].filter("
-                       "t => t.textContent === p || (t.textContent.endsWith('...') &&"
-                       " t.textContent.length > 10 && p.startsWith(t.textContent.slice(0, -3))))"
-                       ".length;")
+                       "return window.ipsView.labels.filter("
+                       "t => t.tag === p && (t.text === p || (t.text.endsWith('...') &&"
+                       " t.text.length > 10 && p.startsWith(t.text.slice(0, -3))))).length;")
         check(on_map >= 1, 'the map does not label the tag named ' + payload)
         injected = wd.js("return {pwned: window.pwned === undefined ? null : window.pwned, "
                          "images: document.images.length, "
@@ -377,11 +382,7 @@ def browser(a):
         wd.quit()
 
 
-CONSOLE_MARKERS_JS = """
-return [...document.querySelectorAll('#map circle.estimate')].map(c => ({
-  channel: c.dataset.channel, tag: c.dataset.tag,
-  cx: parseFloat(c.getAttribute('cx')), cy: parseFloat(c.getAttribute('cy'))}));
-"""
+CONSOLE_MARKERS_JS = MARKERS_JS
 
 
 def console(a):
@@ -410,6 +411,24 @@ def console(a):
                      "return true;")
         check(done, f'nothing to click at {css}')
 
+    def click_marker(tag):
+        # A real pointer press on the marker's pixel (WebDriver actions, from the centre of the
+        # map's top layer): the page finds the estimate under it (hitTest).
+        m = [x for x in wd.js(CONSOLE_MARKERS_JS) if x['tag'] == tag]
+        check(m, f'no marker of {tag} on the map')
+        check(all(x['alpha'] > 0 for x in m), f'{tag} listed as drawn but not painted: {m}')
+        box = wd.js("const r = document.getElementById('map-svg').getBoundingClientRect();"
+                    "return [r.width, r.height];")
+        svg = wd.s('POST', '/element', {'using': 'css selector', 'value': '#map-svg'})
+        ref = next(iter(svg.values()))
+        dx, dy = int(round(m[-1]['cx'] - box[0] / 2)), int(round(m[-1]['cy'] - box[1] / 2))
+        wd.s('POST', '/actions', {'actions': [{
+            'type': 'pointer', 'id': 'mouse', 'parameters': {'pointerType': 'mouse'},
+            'actions': [{'type': 'pointerMove', 'duration': 0,
+                         'origin': {'element-6066-11e4-a52e-4f735466cecf': ref}, 'x': dx, 'y': dy},
+                        {'type': 'pointerDown', 'button': 0}, {'type': 'pointerUp', 'button': 0}]}]})
+        wd.s('DELETE', '/actions')
+
     def seek(t):
         wd.js(f"const s = document.getElementById('seek'); s.value = {t};"
               "s.dispatchEvent(new Event('input')); s.dispatchEvent(new Event('change'));")
@@ -437,7 +456,7 @@ def console(a):
         # Follow T1 by clicking its marker on the map... it is on floor 1: choose it first.
         wd.js("const f = document.getElementById('floor'); f.value = '1'; f.dispatchEvent(new Event('change'));")
         poll(lambda: wd.js(CONSOLE_MARKERS_JS), lambda m: any(x['tag'] == 'T1' for x in m), 30, 'T1 on floor 1')
-        click('#map circle.estimate[data-tag="T1"]')
+        click_marker('T1')
         poll(lambda: wd.js("return document.getElementById('following').textContent;"),
              lambda t: t == 'following T1', 30, 'following T1')
         detail = wd.js("return [...document.querySelectorAll('#tag-estimates tbody tr')].map(r => r.dataset.channel);")
@@ -506,7 +525,7 @@ def bench(a):
                      "return {draw: q(window.ipsView.frameMs), state: q(window.ipsView.stateMs),"
                      " update: q(window.ipsView.updateMs),"
                      " parts: window.ipsView.drawParts,"
-                     " markers: document.querySelectorAll('#map circle.estimate').length,"
+                     " markers: window.ipsView.drawn.length,"
                      " rows: document.querySelectorAll('#tracks tbody tr').length};")
         info = get_json(a.url.rstrip('/') + '/api/info')
     finally:

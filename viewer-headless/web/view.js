@@ -1,4 +1,4 @@
-// ips-view's page: the map is drawn here, in SVG, from the state ips-view sends (the first one is
+// ips-view's page: the map is drawn here (SVG for the site, a canvas for what moves), from the state ips-view sends (the first one is
 // in the page itself, then "state" events from /events a few times a second), with the site's
 // floors, plans and zones from /api/site. Channel and tag toggles, zoom and pan, the followed
 // tag and the floor are kept in the URL (#...). Every string that came off the bus is put in the
@@ -6,6 +6,7 @@
 'use strict';
 (function () {
   const STALE_S = 5;
+  const MARKER_R = 5;  // an estimate's radius on the map, pixels
   const SVGNS = 'http://www.w3.org/2000/svg';
   const $ = (id) => document.getElementById(id);
   const natural = new Intl.Collator(undefined, {numeric: true, sensitivity: 'base'}).compare;
@@ -19,10 +20,11 @@
     lastCount: new Map(),
     view: null,        // {cx, cy, scale}: world point at the centre, pixels per metre
     hidden: new Set(), hiddenTags: new Set(), follow: null, floor: null,
-    markers: new Map(), siteKey: '',
+    drawn: [], labels: [], siteKey: '',
     drawPending: false, seeking: false, lastFrameMs: 0, frameMs: [], stateMs: [], updateMs: [], size: null,
   };
-  // For tests and the curious: lastFrameMs is the last draw's time, frameMs the last 200 draws,
+  // For tests and the curious: drawn is what the last draw put on the map (channel, tag, x, y in
+  // CSS pixels of the map, in drawing order), labels the tags' labels; lastFrameMs is the last draw's time, frameMs the last 200 draws,
   // stateMs the last 200 state updates' (the tables, without the draw that follows), updateMs
   // the main thread's whole work for each of the last 200 updates (parse, tables, draw, style
   // and layout; not the paint).
@@ -176,8 +178,8 @@
     return 10 * p;
   }
   // Three layers: the site (plan, grid, zones, anchors: SVG, rebuilt only when the view or the
-  // site changes), the trails and ellipses (a canvas, redrawn each time), and the estimates with
-  // their labels, the scale bar and the time (SVG elements kept per track and moved).
+  // site changes), the trails, ellipses, estimates and labels (a canvas, redrawn each time), and
+  // the scale bar and the time (SVG, on top, which also takes the pointer).
   function drawSite(s, floor) {
     const g = document.createDocumentFragment();
     const planFloor = floor === null ? floors().find((f) => f.plan) : floors().find((f) => f.index === floor);
@@ -225,8 +227,11 @@
     }
     $('map-site').replaceChildren(g);
   }
-  function drawTrails(s, tracks) {
-    const canvas = $('map-trails');
+  // The canvas: trails, ellipses, then the estimates and their tags' labels, all drawn anew each
+  // time (700 SVG circles cost more in style and layout than drawing them here). What was drawn
+  // is kept in app.drawn, in drawing order, for clicks and hover (hitTest) and for tests.
+  function drawCanvas(s, tracks) {
+    const canvas = $('map-canvas');
     const ratio = window.devicePixelRatio || 1;
     if (canvas.width !== Math.round(s.w * ratio) || canvas.height !== Math.round(s.h * ratio)) {
       canvas.width = Math.round(s.w * ratio);
@@ -263,49 +268,54 @@
       ctx.stroke();
     }
     ctx.globalAlpha = 1;
-  }
-  function drawEstimates(s, tracks) {
-    const layer = $('map-svg');
-    const labelAt = new Map();
-    for (const t of tracks) if (!labelAt.has(t.tag) || t.channel === 'POSE_FUSED') labelAt.set(t.tag, t);
-    const seen = new Set();
-    for (const t of tracks) {
-      const k = key(t);
-      seen.add(k);
-      let m = app.markers.get(k);
-      if (!m) {
-        m = {circle: el('circle', {class: 'estimate', r: 5, 'data-channel': t.channel, 'data-tag': t.tag}), title: el('title', {}), label: null};
-        m.circle.appendChild(m.title);
-        layer.appendChild(m.circle);
-        app.markers.set(k, m);
-      }
+    // The estimates: the followed tag's last, on top, with a thicker ring; stale ones hollow.
+    const drawn = [];
+    const order = app.follow === null ? tracks
+      : tracks.filter((t) => t.tag !== app.follow).concat(tracks.filter((t) => t.tag === app.follow));
+    for (const t of order) {
       const [x, y] = toScreen(t.position[0], t.position[1], s);
-      const stale = t.age_s > STALE_S;
-      if (!m.cache) m.cache = {};
-      setAttrs(m.circle, m.cache, {cx: x.toFixed(1), cy: y.toFixed(1), fill: stale ? '#fff' : t.colour,
-        stroke: t.colour, class: 'estimate' + (t.tag === app.follow ? ' followed' : '')});
-      const title = `${t.channel} ${t.tag} (${fixed(t.position[0], 2)}, ${fixed(t.position[1], 2)})`;
-      if (m.title.textContent !== title) m.title.textContent = title;
-      if (labelAt.get(t.tag) === t) {
-        if (!m.label) {
-          m.label = el('text', {class: 'tag-id'}, t.tag.length > 24 ? t.tag.slice(0, 21) + '...' : t.tag);
-          layer.appendChild(m.label);
-        }
-        if (!m.labelCache) m.labelCache = {};
-        setAttrs(m.label, m.labelCache, {x: (x + 7).toFixed(1), y: (y - 7).toFixed(1)});
-      } else if (m.label) {
-        m.label.remove();
-        m.label = null;
-        m.labelCache = null;
-      }
+      if (x < -MARKER_R || y < -MARKER_R || x > s.w + MARKER_R || y > s.h + MARKER_R) continue;
+      ctx.beginPath();
+      ctx.arc(x, y, MARKER_R, 0, 2 * Math.PI);
+      ctx.fillStyle = t.age_s > STALE_S ? '#fff' : t.colour;
+      ctx.fill();
+      ctx.lineWidth = t.tag === app.follow ? 3 : 1.5;
+      ctx.strokeStyle = t.colour;
+      ctx.stroke();
+      drawn.push({channel: t.channel, tag: t.tag, x: x, y: y, position: t.position});
     }
-    for (const [k, m] of app.markers) {
-      if (seen.has(k)) continue;
-      m.circle.remove();
-      if (m.label) m.label.remove();
-      app.markers.delete(k);
+    // One label per tag, beside its fused estimate (or its first one).
+    const labelAt = new Map();
+    for (const d of drawn) if (!labelAt.has(d.tag) || d.channel === 'POSE_FUSED') labelAt.set(d.tag, d);
+    ctx.font = '12px sans-serif';
+    ctx.lineWidth = 3;
+    ctx.lineJoin = 'round';
+    ctx.strokeStyle = '#fff';
+    ctx.fillStyle = '#222';
+    const labels = [];
+    for (const [tag, d] of labelAt) {
+      const text = tag.length > 24 ? tag.slice(0, 21) + '...' : tag;
+      ctx.strokeText(text, d.x + 7, d.y - 7);
+      ctx.fillText(text, d.x + 7, d.y - 7);
+      labels.push({tag: tag, text: text, x: d.x + 7, y: d.y - 7});
     }
-    // Scale bar and the time, on top.
+    app.drawn = drawn;
+    app.labels = labels;
+  }
+  // The estimate under a point of the map (in CSS pixels), the one drawn last winning; null if none.
+  function hitTest(px, py) {
+    for (let i = app.drawn.length - 1; i >= 0; --i) {
+      const d = app.drawn[i];
+      if ((d.x - px) * (d.x - px) + (d.y - py) * (d.y - py) <= (MARKER_R + 2) * (MARKER_R + 2)) return d;
+    }
+    return null;
+  }
+  function estimateTitle(d) {
+    return `${d.channel} ${d.tag} (${fixed(d.position[0], 2)}, ${fixed(d.position[1], 2)})`;
+  }
+  // The scale bar and the time, on top (SVG).
+  function drawDeco(s) {
+    const layer = $('map-svg');
     const bar = niceStep(100 / app.view.scale), barPx = bar * app.view.scale;
     let deco = layer.querySelector('g.deco');
     if (!deco) { deco = el('g', {class: 'deco'}); layer.appendChild(deco); }
@@ -313,6 +323,7 @@
       el('path', {class: 'scale-bar', d: `M12 ${s.h - 14}h${barPx}M12 ${s.h - 19}v10M${12 + barPx} ${s.h - 19}v10`}),
       el('text', {class: 'scale-text', x: 12, y: s.h - 22}, bar >= 1 ? bar + ' m' : bar * 100 + ' cm'),
       el('text', {class: 'map-time', x: s.w - 10, y: s.h - 10}, app.state ? timeText(app.state.now_utime) : ''));
+    $('map').dataset.estimates = app.drawn.length;
   }
   function draw() {
     const t0 = performance.now();
@@ -334,10 +345,10 @@
     }
     const t1 = performance.now();
     const tracks = app.state ? app.state.tracks.filter(visible) : [];
-    drawTrails(s, tracks);
+    drawCanvas(s, tracks);
     const t2 = performance.now();
-    drawEstimates(s, tracks);
-    app.drawParts = {site: t1 - t0, trails: t2 - t1, estimates: performance.now() - t2};
+    drawDeco(s);
+    app.drawParts = {site: t1 - t0, canvas: t2 - t1, deco: performance.now() - t2};
     app.lastFrameMs = performance.now() - t0;
     app.frameMs.push(app.lastFrameMs);
     if (app.frameMs.length > 200) app.frameMs.shift();
@@ -674,14 +685,27 @@
       zoomAt(e.deltaY < 0 ? 1.2 : 1 / 1.2, e.clientX - r.left, e.clientY - r.top);
     }, {passive: false});
     let drag = null;
+    const at = (e) => { const r = svg.getBoundingClientRect(); return hitTest(e.clientX - r.left, e.clientY - r.top); };
     svg.addEventListener('pointerdown', (e) => {
-      const hit = e.target.closest && e.target.closest('circle.estimate');
-      if (hit) { followTag(hit.dataset.tag); return; }
+      const hit = at(e);
+      if (hit) { followTag(hit.tag); return; }
       drag = {x: e.clientX, y: e.clientY, cx: app.view.cx, cy: app.view.cy};
       svg.setPointerCapture(e.pointerId);
     });
+    svg.addEventListener('pointerleave', () => { $('map-tip').hidden = true; });
     svg.addEventListener('pointermove', (e) => {
-      if (!drag) return;
+      if (!drag) {
+        // Hover: the estimate's channel, tag and position in a tip, the pointer a hand.
+        const hit = at(e), tip = $('map-tip');
+        svg.classList.toggle('over-estimate', !!hit);
+        tip.hidden = !hit;
+        if (hit) {
+          tip.textContent = estimateTitle(hit);
+          tip.style.left = (hit.x + 10) + 'px';
+          tip.style.top = (hit.y + 8) + 'px';
+        }
+        return;
+      }
       if (app.follow) followTag(null);
       app.view.cx = drag.cx - (e.clientX - drag.x) / app.view.scale;
       app.view.cy = drag.cy + (e.clientY - drag.y) / app.view.scale;
