@@ -20,6 +20,7 @@ source "$ROOT/tests/integration/live_test_lib.sh"
 site() {  # learn_noise -> a site file: the lab's, with range_sigma_m 0.01
   sed -e 's/^    range_sigma_m: 0.10$/    range_sigma_m: 0.01/' "$ROOT/config/sites/lab.yaml" \
     >"$WORK/site-$1.yaml"
+  cp "$ROOT/config/sites/lab-plan.svg" "$WORK/"  # the floor plan, beside the site file
   grep -q 'range_sigma_m: 0.01' "$WORK/site-$1.yaml" ||
     fail "config/sites/lab.yaml changed shape: no range_sigma_m 0.10 to replace"
   [ "$1" = true ] || sed -i 's/^  uwb_twr:$/  uwb_twr:\n    learn_noise: false/' "$WORK/site-$1.yaml"

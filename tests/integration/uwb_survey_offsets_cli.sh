@@ -76,6 +76,7 @@ fi
   cat "$ROOT/config/sites/lab.yaml"
   printf '    learn_bias: false\n    range_offsets_m: {T1/A2: 0.5, T9/B7: 0.25}\n'
 } >"$WORK/with-keys.yaml"
+cp "$ROOT/config/sites/lab-plan.svg" "$WORK/"  # the floor plan, beside the site file
 if run 0 "$SURVEY" --log "$WORK/lab.lcm" --offsets --site "$WORK/with-keys.yaml" --out "$WORK/kept.yaml"; then
   grep -q "^    range_sigma_m: 0.10\?$" "$WORK/kept.yaml" && grep -q "^    learn_bias: false$" "$WORK/kept.yaml" &&
     ok "other uwb_twr keys kept" || fail "uwb_twr keys: $(sed -n '/^estimators:/,$p' "$WORK/kept.yaml")"

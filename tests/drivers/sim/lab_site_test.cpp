@@ -99,6 +99,23 @@ TEST(LabSiteFile, IsWhatTheLabScenarioPublishes) {
   EXPECT_EQ(file.layout.alerts.tag_silent_s, sim.layout.alerts.tag_silent_s);
   EXPECT_EQ(file.layout.alerts.process_silent_s, sim.layout.alerts.process_silent_s);
   EXPECT_EQ(file.layout.alerts.process_degraded, sim.layout.alerts.process_degraded);
+
+  // The floor and its plan: the scenario carries config/sites/lab-plan.svg as a data URI, the
+  // file reads it; the same bytes (after editing the SVG, paste `base64 -w0` of it there).
+  ASSERT_EQ(file.layout.floors.size(), 1u);
+  ASSERT_EQ(sim.layout.floors.size(), 1u);
+  const Floor& ff = file.layout.floors[0];
+  const Floor& sf = sim.layout.floors[0];
+  EXPECT_EQ(ff.index, sf.index);
+  EXPECT_EQ(ff.name, sf.name);
+  EXPECT_EQ(ff.height_m, sf.height_m);
+  ASSERT_TRUE(ff.plan && sf.plan);
+  EXPECT_EQ(ff.plan->origin, sf.plan->origin);
+  EXPECT_EQ(ff.plan->size_m, sf.plan->size_m);
+  EXPECT_EQ(ff.plan->rotation_rad, sf.plan->rotation_rad);
+  EXPECT_EQ(ff.plan->data_uri.rfind("data:image/svg+xml;base64,", 0), 0u);
+  EXPECT_EQ(ff.plan->data_uri, sf.plan->data_uri)
+      << "config/scenarios/lab.yaml's plan_images is not config/sites/lab-plan.svg";
 }
 
 // The lab is a showcase: its tag starts where the site says (dead reckoning starts right), and

@@ -38,6 +38,7 @@ python3 "$CHECK" "$SITE" "$WORK/fused1.lcm" --within 0.5 || fail "zone events on
 "$BIN/ips-bus-check" --timeout 30 || fail "multicast does not loop back inside the namespace"
 sed -e 's/^alerts: .*/alerts: {tag_silent_s: 2, process_silent_s: 2}/' "$SITE" >"$WORK/site.yaml"
 grep -q 'tag_silent_s: 2,' "$WORK/site.yaml" || fail "could not shorten the alert rules"
+cp "$ROOT/config/sites/lab-plan.svg" "$WORK/"  # the floor plan, beside the site file
 # A site without BLE anchors: ips-aoa says so as a lasting error (degraded).
 grep -v 'kind: ble_aoa' "$SITE" | sed -e '/^zones:/,$d' >"$WORK/no-aoa.yaml"
 lcm-logger -q -f "$WORK/live.lcm" & logger=$!; pids+=($logger)

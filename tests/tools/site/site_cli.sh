@@ -23,6 +23,7 @@ anchors:
   - {id: A1, position: [0, 0]}
 YAML
 sed 's/range_sigma_m: 0.10/range_sigma_m: 0/' "$ROOT/config/sites/lab.yaml" >"$WORK/param.yaml"
+cp "$ROOT/config/sites/lab-plan.svg" "$WORK/"  # the floor plan, beside the site file
 param_line=$(grep -n "range_sigma_m: 0$" "$WORK/param.yaml" | cut -d: -f1)
 printf 'name: x\nanchors: [ {id: A1\n' >"$WORK/syntax.yaml"
 

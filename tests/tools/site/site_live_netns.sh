@@ -60,6 +60,8 @@ SITE_IS="site 'lab' \([0-9]+ anchors, 1 tags\)"
 "$BIN/ips-bus-check" --timeout 30 || fail "multicast does not loop back inside the namespace"
 mkdir -p "$WORK/etc" "$WORK/store"
 cp "$ROOT/config/sites/lab.yaml" "$SITE"
+# The floor plan beside each copy of the site file (its path is relative to the file).
+cp "$ROOT/config/sites/lab-plan.svg" "$WORK/etc/" && cp "$ROOT/config/sites/lab-plan.svg" "$WORK/store/"
 lcm-logger -q -f "$LOG" & logger=$!; pids+=($logger)
 logger_sync "$LOG"
 t0=$(now)
