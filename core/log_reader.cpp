@@ -215,4 +215,29 @@ const LogEvent* LogReader::next() {
   return nullptr;
 }
 
+std::optional<LogSpan> read_log_span(std::FILE* file, int64_t tail_bytes) {
+  struct stat st {};
+  if (fstat(fileno(file), &st) != 0 || fseeko(file, 0, SEEK_SET) != 0) return std::nullopt;
+  LogSpan span;
+  {
+    FileLogSource head(file);
+    LogReader reader(head, size_t{1} << 16);
+    const LogEvent* e = reader.next();
+    if (!e) return std::nullopt;
+    span.first_us = span.last_us = e->timestamp_us;
+  }
+  for (int64_t window = std::max<int64_t>(tail_bytes, 1);; window *= 4) {
+    const int64_t start = std::max<int64_t>(0, st.st_size - window);
+    if (fseeko(file, static_cast<off_t>(start), SEEK_SET) != 0) return std::nullopt;
+    FileLogSource tail(file);
+    LogReader reader(tail, size_t{1} << 16);
+    bool any = false;
+    while (const LogEvent* e = reader.next()) {
+      span.last_us = std::max(span.last_us, e->timestamp_us);
+      any = true;
+    }
+    if (any || start == 0) return span;
+  }
+}
+
 }  // namespace ips

@@ -35,6 +35,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <cstdio>
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
@@ -150,5 +151,14 @@ class LogReader {
   LogReadStats stats_;
   LogEvent event_;
 };
+
+// A log's first event's time stamp and the latest one among the events of its last tail_bytes
+// (widened until it holds an event): a timeline's span without a pass over the whole file.
+// Nullopt when the file holds no event. Moves the file's position.
+struct LogSpan {
+  int64_t first_us = 0;
+  int64_t last_us = 0;
+};
+std::optional<LogSpan> read_log_span(std::FILE* file, int64_t tail_bytes = int64_t{1} << 22);
 
 }  // namespace ips

@@ -261,18 +261,14 @@ class LogPlayback {
   double base_s_ = 0;  // log seconds reached when start_ was taken
 };
 
-// The first and last event times of a log (a pass over it, no decoding): the page's timeline.
+// The first and last event times of a log (its head and tail, no decoding): the page's timeline.
 std::pair<utime_t, utime_t> log_span(const std::string& path) {
-  auto in = ips::LogInput::open(kProgram, path);
-  utime_t first = 0, last = 0;
-  bool any = false;
-  if (!in) return {0, 0};
-  while (const ips::LogEvent* e = in->next()) {
-    if (!any) first = e->timestamp_us;
-    last = std::max(last, e->timestamp_us);
-    any = true;
-  }
-  return {first, last};
+  std::FILE* f = std::fopen(path.c_str(), "rb");
+  if (!f) return {0, 0};
+  const std::optional<ips::LogSpan> span = ips::read_log_span(f);
+  std::fclose(f);
+  if (!span) return {0, 0};
+  return {span->first_us, span->last_us};
 }
 
 bool loopback_address(const std::string& addr) { return addr.rfind("127.", 0) == 0; }

@@ -176,6 +176,32 @@ TEST(LogReader, ReadsBackWhatLcmLogFileWrote) {
   expect_all_bytes_counted(r.stats, bytes.size());
 }
 
+TEST(LogReader, SpanFromHeadAndTailIsThatOfAWholePass) {
+  TempLog log;
+  auto events = written_events();
+  events[36].timestamp_us += 10'000'000;  // the latest is not the last: the tail's maximum counts
+  const auto want = write_with_lcm(log.path(), events);
+  int64_t last = want.front().timestamp_us;
+  for (const auto& e : want) last = std::max(last, e.timestamp_us);
+  std::FILE* f = std::fopen(log.path().c_str(), "rb");
+  ASSERT_NE(f, nullptr);
+  // Windows that start inside an event (of 3 MiB among them) and one wider than the file.
+  for (const int64_t tail :
+       {int64_t{1}, int64_t{100}, int64_t{5000}, int64_t{1} << 22, int64_t{1} << 30}) {
+    const auto span = read_log_span(f, tail);
+    ASSERT_TRUE(span) << tail;
+    EXPECT_EQ(span->first_us, want.front().timestamp_us) << tail;
+    EXPECT_EQ(span->last_us, last) << tail;
+  }
+  std::fclose(f);
+  TempLog empty;
+  empty.write({0x01, 0x02, 0x03});
+  f = std::fopen(empty.path().c_str(), "rb");
+  ASSERT_NE(f, nullptr);
+  EXPECT_FALSE(read_log_span(f));
+  std::fclose(f);
+}
+
 // Expected events: `want` without those numbered in `lost`, shifted by `inserted` bytes from
 // event `from` on.
 std::vector<Event> without(const std::vector<Event>& want, std::vector<size_t> lost, size_t from,
