@@ -27,36 +27,17 @@ cleanup() {
 trap cleanup EXIT
 fail() { echo "FAIL: $*"; exit 1; }
 
-# Serves LOG with ips-view on a free port; sets $url once the first line says where.
-serve() {
-  local err=$1
-  shift
-  : >"$err"
-  "$BIN/ips-view" "$@" --port 0 --log-level warn 2>"$err" & pids+=($!)
-  local deadline=$((SECONDS + 60))
-  until grep -q '^ips-view: serving http://127.0.0.1:[0-9]*/' "$err"; do
-    [ "$SECONDS" -lt "$deadline" ] || fail "ips-view did not start: $(cat "$err")"
-    sleep 0.1
-  done
-  url=$(sed -n 's|^ips-view: serving \(http://127.0.0.1:[0-9]*/\).*|\1|p' "$err" | head -1)
-}
+source "$HERE/browser_lib.sh"
 
 "$BIN/view_console_log" "$WORK/console.lcm"
-serve "$WORK/view.err" "$WORK/console.lcm" --speed 1
-: >"$WORK/chromedriver.log"
-chromedriver --port=0 >"$WORK/chromedriver.log" 2>&1 & pids+=($!)
-deadline=$((SECONDS + 60))
-until grep -Eq 'ChromeDriver was started successfully on port [0-9]+' "$WORK/chromedriver.log"; do
-  [ "$SECONDS" -lt "$deadline" ] || fail "chromedriver did not start: $(cat "$WORK/chromedriver.log")"
-  sleep 0.1
-done
-driver_port=$(grep -Eo 'started successfully on port [0-9]+' "$WORK/chromedriver.log" | grep -Eo '[0-9]+$')
-python3 "$HERE/viewer_checks.py" console "$url" --webdriver "http://127.0.0.1:$driver_port" \
+view_start "$WORK/view.err" "$WORK/console.lcm" --speed 1
+chromedriver_start "$WORK/chromedriver.log"
+python3 "$HERE/viewer_checks.py" console "$url" --webdriver "$webdriver" \
   --screenshots "$OUT/viewer-console"
 
 # The finished log's page, loaded by Chromium alone: the map is drawn from the page's snapshot
 # (every floor: T1 on floor 1, T2 and T10 on floor 0).
-serve "$WORK/view-end.err" "$WORK/console.lcm" --speed 0
+view_start "$WORK/view-end.err" "$WORK/console.lcm" --speed 0
 url="${url}#floor=all"
 timeout 60 chromium --headless=new --no-sandbox --disable-gpu --window-size=1280,900 \
   --dump-dom "$url" >"$WORK/dom.html" 2>/dev/null || fail "chromium --dump-dom failed"
