@@ -8,6 +8,7 @@
 #include "core/lcm_url.hpp"
 #include "core/yaml_fields.hpp"
 #include "core/logging.hpp"
+#include "core/tag_selector.hpp"
 #include "core/version.hpp"
 
 namespace ips {
@@ -46,6 +47,18 @@ void add_common_options(CLI::App& app, CommonOptions& opts, CommonFlags flags) {
                    "rename a channel, KIND=NAME (e.g. --channel POSE_UWB=POSE_UWB_TEST); "
                    "repeatable")
         ->type_name("KIND=NAME");
+  }
+  if (flags.tags) {
+    app.add_option("--tags", opts.tags,
+                   "handle only these tags: ids and globs (* any run, ? one character), "
+                   "comma-separated, e.g. T1,T2 or 'T1*'; messages of other tags are skipped and "
+                   "counted in HEALTH's note (default: every tag)")
+        ->type_name("PATTERN");
+    app.add_option("--shard", opts.shard,
+                   "handle only shard K of N (1 <= K <= N <= 1024): the tags whose FNV-1a 64 hash "
+                   "of the id, mod N, plus 1, is K; N instances with 1/N .. N/N split the tags "
+                   "(docs/networking.md#splitting-a-big-site)")
+        ->type_name("K/N");
   }
   app.add_option("--log-level", opts.log_level, "trace, debug, info, warn, error or off")
       ->capture_default_str();
@@ -117,6 +130,14 @@ bool parse_command_line(CLI::App& app, const CommonOptions& opts, int argc, char
     if (!channel::valid_channel_name(o.substr(eq + 1))) {
       print_fatal(app.get_name(), "--channel: bad channel name '" + o.substr(eq + 1) +
                                       "' (1 to 63 letters, digits or _)");
+      exit_code = 2;
+      return false;
+    }
+  }
+  if (!opts.tags.empty() || !opts.shard.empty()) {
+    std::string error;
+    if (!TagSelector::parse(opts.tags, opts.shard, error)) {
+      print_fatal(app.get_name(), error);
       exit_code = 2;
       return false;
     }

@@ -25,6 +25,10 @@ struct CommonOptions {
   // docs/networking.md#loss
   int lcm_queue = kDefaultLcmQueue;
   int lcm_recv_buf = kDefaultRecvBufBytes;
+  // The tags this instance handles (--tags: ids and globs, comma-separated; --shard K/N), for
+  // programs that offer them (CommonFlags::tags; core/tag_selector.hpp). Empty: every tag.
+  std::string tags;
+  std::string shard;
 
   // The channel to use for a kind (e.g. "UWB_RANGE"), after --channel overrides.
   std::string channel(const std::string& kind) const;
@@ -35,6 +39,7 @@ struct CommonFlags {
   bool lcm = true;
   bool site = true;
   bool channels = true;
+  bool tags = false;  // --tags and --shard: a subset of the tags (core/tag_filter.hpp)
 };
 
 void add_common_options(CLI::App& app, CommonOptions& opts, CommonFlags flags = {});
@@ -45,7 +50,8 @@ void add_common_options(CLI::App& app, CommonOptions& opts, CommonFlags flags = 
 // go on. Also applies --log-level and checks --channel syntax.
 bool parse_command_line(CLI::App& app, const CommonOptions& opts, int argc, char** argv,
                         int& exit_code);
-// (--channel KIND must be one of channel::kAllKinds: a misspelt kind is an error, not ignored.)
+// (--channel KIND must be one of channel::kAllKinds: a misspelt kind is an error, not ignored;
+// --tags and --shard are checked the same way.)
 
 // Prints "<program>: error: <what>" on stderr (one line, for start-up failures).
 void print_fatal(const std::string& program, const std::string& what);
