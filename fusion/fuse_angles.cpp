@@ -3,6 +3,7 @@
 #include "fusion/fuse_estimator.hpp"
 
 #include <cmath>
+#include <utility>
 
 #include "estimators/aoa/models/aoa_bearing.hpp"
 #include "fusion/fuse_inputs.hpp"
@@ -31,7 +32,7 @@ void FuseEstimator::on_aoa_epoch(const aoa::AoaEpochAngles& e) {
     ++a.count;
   }
   t->tight_aoa = true;
-  add(*e.tag_id, *t, m);
+  add(*e.tag_id, *t, std::move(m));
 }
 
 void FuseEstimator::apply_angles(Track& t, Snapshot& s, const Measurement& m, bool live) {

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <optional>
 #include <string>
+#include <utility>
 
 #include "core/geometry.hpp"
 #include "core/text_escape.hpp"
@@ -101,7 +102,7 @@ void FuseEstimator::on_dead_reckoning(const pose_t& m, DisplacementSource src, u
   t->dr_bit = bit;
   t->last_dr_t = m.utime;
   t->last_dr_position = p;
-  if (t->initialised) add(m.tag_id, *t, d);
+  if (t->initialised) add(m.tag_id, *t, std::move(d));
   else if (!t->ever_started || !t->absolute_seen) start(m.tag_id, *t, m.utime, p, params_.start_sigma_m);
 }
 
@@ -147,7 +148,7 @@ void FuseEstimator::on_step(const step_t& m) {
                           m.length_m * std::sin(m.heading_rad), 0.0);
   d.source = kSrcStep;
   t->dr_bit = kSrcStep;
-  add(m.tag_id, *t, d);
+  add(m.tag_id, *t, std::move(d));
 }
 
 void FuseEstimator::predict(const Track& t, Snapshot& s, utime_t to) const {
@@ -168,7 +169,11 @@ void FuseEstimator::predict(const Track& t, Snapshot& s, utime_t to) const {
                         mid && end ? *mid : 0.0, mid && end ? *end : 0.0);
     s.velocity_t = b;
   };
-  for (const Measurement& d : t.history) {
+  // The history is in time order: what ends by the cursor is skipped without a look.
+  const auto first = std::upper_bound(t.history.begin(), t.history.end(), cursor,
+                                      [](utime_t v, const Measurement& h) { return v < h.t; });
+  for (auto it = first; it != t.history.end(); ++it) {
+    const Measurement& d = *it;
     if (d.kind != Measurement::Kind::kDisplacement || d.t <= cursor || d.t0 >= to) continue;
     const utime_t a = std::max(d.t0, cursor), b = std::min(d.t, to);
     if (b <= a) continue;

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <utility>
 
 #include "fusion/fuse_inputs.hpp"
 #include "fusion/models/height.hpp"
@@ -30,7 +31,7 @@ void FuseEstimator::on_altitude(const altitude_t& m) {
   h.value = m.height_m;
   h.sigma = std::max(m.height_std_m, 0.01);
   h.source = kSrcAltitude;
-  add(m.tag_id, *t, h);
+  add(m.tag_id, *t, std::move(h));
 }
 
 void FuseEstimator::apply_height(Track& t, Snapshot& s, const Measurement& m, bool live) {

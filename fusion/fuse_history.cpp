@@ -4,6 +4,7 @@
 #include "fusion/fuse_estimator.hpp"
 
 #include <algorithm>
+#include <utility>
 
 namespace ips::fusion {
 
@@ -28,7 +29,7 @@ void FuseEstimator::add(const std::string& tag_id, Track& t, Measurement m) {
   auto pos = std::upper_bound(t.history.begin(), t.history.end(), m.t,
                               [](utime_t v, const Measurement& h) { return v < h.t; });
   const size_t index = static_cast<size_t>(pos - t.history.begin());
-  t.history.insert(pos, m);
+  t.history.insert(pos, std::move(m));
   if (from >= t.state.t && index + 1 == t.history.size()) {
     apply(t, t.state, t.history.back(), true);
     t.snapshots.push_back(t.state);

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <utility>
 
 #include "fusion/fuse_inputs.hpp"
 #include "fusion/models/position.hpp"
@@ -36,7 +37,7 @@ void FuseEstimator::on_pose(const pose_t& m, const std::string& kind) {
     start(m.tag_id, *t, m.utime, p.vec, std::sqrt(std::max(cov->trace() / 3.0, 1e-6)));
     return;
   }
-  add(m.tag_id, *t, p);
+  add(m.tag_id, *t, std::move(p));
 }
 
 void FuseEstimator::apply_position(Track& t, Snapshot& s, const Measurement& m, bool live) {

@@ -53,7 +53,7 @@ void FuseEstimator::on_range(const uwb_range_t& m) {
     if (!t->initialised) ++stats_.waiting_start;
     return;
   }
-  add(m.tag_id, *t, r);
+  add(m.tag_id, *t, std::move(r));
 }
 
 void FuseEstimator::learn_offsets(Track& t, const Measurement& r) {

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <utility>
 
 #include "core/device_text.hpp"
 #include "fusion/fuse_inputs.hpp"
@@ -41,7 +42,7 @@ void FuseEstimator::on_pair(const uwb_tdoa_t& m) {
       meas.group.emplace<TdoaArrivals>(pair_arrivals(a->position, b->position, m.diff_m,
                                                      sigma * sigma));
       t->tight_tdoa = true;
-      add(m.tag_id, *t, meas);
+      add(m.tag_id, *t, std::move(meas));
     }
   }
   tdoa_.on_pair(m);
@@ -73,7 +74,7 @@ void FuseEstimator::on_tdoa_epoch(const uwb_tdoa::TdoaEpoch& e) {
     a.var_m2[k] = e.var_m2[order[k]];
   }
   t->tight_tdoa = true;
-  add(*e.tag_id, *t, m);
+  add(*e.tag_id, *t, std::move(m));
 }
 
 void FuseEstimator::apply_tdoa(Track& t, Snapshot& s, const Measurement& m, bool live) {
