@@ -132,11 +132,13 @@ void AoaEstimator::set_site(const Site& site) {
   frames_.clear();
   usable_.clear();
   calibration_.clear();
+  anchor_index_.clear();
   double height_sum = 0;
   int n = 0;
   box_min_.setConstant(std::numeric_limits<double>::infinity());
   box_max_.setConstant(-std::numeric_limits<double>::infinity());
   for (const auto& a : site.anchors) {
+    anchor_index_.try_emplace(a.id, frames_.size());  // the first of an id, as a search finds
     frames_.push_back(anchor_frame(a));
     const bool usable = a.kind == "ble_aoa" && a.enabled;
     usable_.push_back(usable);
@@ -176,8 +178,8 @@ void AoaEstimator::on_event(const ble_aoa_t& m) {
     --stats_.events_in;  // counted when handed over again, or dropped as a time jump
     return;
   }
-  size_t index = 0;
-  while (index < site_->anchors.size() && site_->anchors[index].id != m.anchor_id) ++index;
+  const auto found = anchor_index_.find(m.anchor_id);
+  const size_t index = found == anchor_index_.end() ? site_->anchors.size() : found->second;
   if (index == site_->anchors.size() || !usable_[index]) {
     const bool none = std::find(usable_.begin(), usable_.end(), true) == usable_.end();
     ++(none ? stats_.dropped_no_anchors : stats_.dropped_unknown_anchor);
@@ -192,11 +194,13 @@ void AoaEstimator::on_event(const ble_aoa_t& m) {
     ++stats_.dropped_outside_calibration;
     return;
   }
-  if (!tracks_.count(m.tag_id) && static_cast<int>(tracks_.size()) >= params_.max_tags) {
-    ++stats_.dropped_too_many_tags;
-    return;
+  if (tracks_.find(m.tag_id) == tracks_.end()) {
+    if (static_cast<int>(tracks_.size()) >= params_.max_tags) {
+      ++stats_.dropped_too_many_tags;
+      return;
+    }
+    tracks_.try_emplace(m.tag_id);
   }
-  tracks_.try_emplace(m.tag_id);
   AoaEvent e;
   e.utime = m.utime;
   e.anchor = index;
@@ -281,10 +285,9 @@ void AoaEstimator::pick_angles(const Epoch& epoch, const Track* track,
             [](const AoaEvent& a, const AoaEvent& b) { return a.anchor < b.anchor; });
 }
 
-std::vector<BearingObservation> AoaEstimator::observations(
-    const std::vector<AoaEvent>& events) const {
-  std::vector<BearingObservation> obs;
-  obs.reserve(events.size());
+void AoaEstimator::observations(const std::vector<AoaEvent>& events,
+                                std::vector<BearingObservation>& obs) const {
+  obs.clear();
   for (const AoaEvent& e : events) {
     BearingObservation o;
     o.frame = &frames_[e.anchor];
@@ -295,7 +298,6 @@ std::vector<BearingObservation> AoaEstimator::observations(
         sigma_rad(params_.elevation_sigma_deg, e.azimuth_deg, e.elevation_deg);
     obs.push_back(o);
   }
-  return obs;
 }
 
 void AoaEstimator::set_epoch_sink(EpochSink sink, bool track) {
@@ -320,8 +322,8 @@ void AoaEstimator::on_epoch(Epoch& epoch) {
   }
   pick_angles(epoch, &t, picked_);
   if (epoch_sink_) {
-    const std::vector<BearingObservation> angles = observations(picked_);
-    epoch_sink_({&epoch.tag_id, epoch.utime, &picked_, &angles});
+    observations(picked_, angles_);
+    epoch_sink_({&epoch.tag_id, epoch.utime, &picked_, &angles_});
   }
   if (!track_) return;
   if (params_.method == AoaMethod::kPerEpoch) {
@@ -364,7 +366,8 @@ std::optional<AoaSolution> AoaEstimator::fix(const Track& t, const std::vector<A
   o.three_d = !t.planar;
   o.height_m = t.height_m;
   o.initial = start;
-  const auto obs = observations(events);
+  observations(events, angles_);
+  const std::vector<BearingObservation>& obs = angles_;
   AoaSolution s = solve_aoa(obs, o);
   if (!s.ok && o.initial) {  // a bad warm start must not lose the tag: start from the lines
     o.initial.reset();

@@ -21,6 +21,7 @@
 #include <map>
 #include <optional>
 #include <string>
+#include <unordered_map>
 #include <vector>
 
 #include "core/consistency.hpp"
@@ -231,7 +232,8 @@ class AoaEstimator {
   void on_epoch(Epoch& epoch);
   // One angle per anchor, chosen by the duplicate policy.
   void pick_angles(const Epoch& epoch, const Track* track, std::vector<AoaEvent>& out);
-  std::vector<BearingObservation> observations(const std::vector<AoaEvent>& events) const;
+  // Into `obs` (a reused buffer).
+  void observations(const std::vector<AoaEvent>& events, std::vector<BearingObservation>& obs) const;
   double sigma_rad(double base_deg, double az_deg, double el_deg) const;
   // The per-epoch fix of these angles (warm-started from `start` when given); nullopt, counted,
   // when it fails or its geometry is too poor.
@@ -271,6 +273,8 @@ class AoaEstimator {
   EpochGrouper grouper_;
   int64_t order_ = 0;
   std::vector<AoaEvent> picked_;  // scratch
+  std::vector<BearingObservation> angles_;  // scratch: picked_'s, or a fix's
+  std::unordered_map<std::string, size_t> anchor_index_;  // site anchor id -> index
   AoaStats stats_;
   TimeGuard guard_;  // per anchor
   ConsistencyMonitor consistency_;

@@ -9,10 +9,15 @@
 // advertisements merged into one epoch; never more than the configured window. An
 // epoch closes when a later event of any tag shows that its window has passed (the log's own
 // time, so replay is exact), or at flush(now) when the bus goes quiet.
-#include <functional>
-#include <map>
+//
+// Per event it does no string work beyond one hash lookup of the tag (none with tag_index()),
+// and allocates nothing once a tag's buffers have grown.
+#include <array>
 #include <cstddef>
+#include <deque>
+#include <functional>
 #include <string>
+#include <unordered_map>
 #include <vector>
 
 #include "core/time.hpp"
@@ -36,40 +41,57 @@ struct Epoch {
 
 class EpochGrouper {
  public:
+  // Gets each closed epoch; it may take the events (the grouper reuses the buffer otherwise).
   using Sink = std::function<void(Epoch&)>;
   EpochGrouper(double window_s, Sink sink);
   static constexpr double kAdvertisingFraction = 0.8;
   static constexpr size_t kIntervals = 31;  // intervals kept per tag
   static constexpr size_t kMinIntervals = 8;  // fewer: the configured window
 
-  void add(const std::string& tag_id, const AoaEvent& e);
+  // The tag's index for add(size_t, ...): the same for the grouper's lifetime (until clear()).
+  size_t tag_index(const std::string& tag_id);
+  void add(const std::string& tag_id, const AoaEvent& e) { add(tag_index(tag_id), e); }
+  void add(size_t tag, const AoaEvent& e);
   // Closes every epoch whose window ended before `now`.
   void flush(utime_t now);
   void flush_all();
   size_t open_epochs() const { return open_.size(); }
   void clear() {
+    tags_.clear();
+    index_.clear();
     open_.clear();
-    rate_.clear();
   }
   // The tag's measured advertising interval (0 until kMinIntervals) and its window now.
   utime_t advertising_interval_us(const std::string& tag_id) const;
   utime_t window_us(const std::string& tag_id) const;
 
  private:
-  void close(std::map<std::string, Epoch>::iterator it);
-  void close_until(utime_t now, bool all);
-
   struct Rate {
-    std::map<size_t, utime_t> last;  // per anchor
-    std::vector<utime_t> intervals;  // ring of the newest kIntervals
+    struct Last {
+      bool seen = false;
+      utime_t utime = 0;
+    };
+    std::vector<Last> last;  // per anchor index
+    std::array<utime_t, kIntervals> intervals{};  // ring of the newest kIntervals
+    size_t count = 0;
     size_t next = 0;
     utime_t median = 0;
     utime_t window = 0;
   };
+  struct Tag {
+    Epoch epoch;  // its tag_id set once
+    bool open = false;
+    Rate rate;
+  };
+  utime_t window_of(const Tag& t) const { return t.rate.window == 0 ? window_us_ : t.rate.window; }
+  void close(size_t open_slot);
+  void close_until(utime_t now, bool all);
+
   utime_t window_us_;
   Sink sink_;
-  std::map<std::string, Epoch> open_;
-  std::map<std::string, Rate> rate_;
+  std::deque<Tag> tags_;  // by tag index (a deque: references stay valid as tags are added)
+  std::unordered_map<std::string, size_t> index_;
+  std::vector<size_t> open_;  // the tags with an open epoch, in no particular order
 };
 
 }  // namespace ips::aoa
