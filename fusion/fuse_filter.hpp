@@ -35,9 +35,9 @@ struct FuseFilter {
                   double turn_end_rad = 0) {
     if (dt <= 0) return;
     const int d = planar ? 2 : 3;
-    Covariance F = Covariance::Identity();
-    for (int i = 0; i < d; ++i) F(i, kVel + i) = dt;
     if (turn_mid_rad != 0 || turn_end_rad != 0) {
+      Covariance F = Covariance::Identity();
+      for (int i = 0; i < d; ++i) F(i, kVel + i) = dt;
       // Midpoint rule: the position moves along the velocity as turned by the middle.
       const Eigen::Matrix2d half = Eigen::Rotation2Dd(turn_mid_rad).toRotationMatrix();
       const Eigen::Matrix2d full = Eigen::Rotation2Dd(turn_end_rad).toRotationMatrix();
@@ -47,10 +47,14 @@ struct FuseFilter {
       x.head<2>() += dt * half * v;
       x.segment<2>(kVel) = full * v;
       if (d == 3) x(2) += dt * x(kVel + 2);
+      P = F * P * F.transpose();
     } else {
       for (int i = 0; i < d; ++i) x(i) += dt * x(kVel + i);
+      // P = F P F^T with F = I + dt on (i, kVel + i): every entry of F P and of (F P) F^T is at
+      // most two nonzero terms, so these are the full product's numbers without its zeros.
+      for (int i = 0; i < d; ++i) P.row(i) += dt * P.row(kVel + i);
+      for (int j = 0; j < d; ++j) P.col(j) += dt * P.col(kVel + j);
     }
-    P = F * P * F.transpose();
     const double dt2 = dt * dt;
     for (int i = 0; i < d; ++i) {
       P(i, i) += accel_psd * dt2 * dt / 3.0;
@@ -70,13 +74,19 @@ struct FuseFilter {
     const Eigen::Vector3d moved(c * d.x() - s * d.y(), s * d.x() + c * d.y(), planar ? 0.0 : d.z());
     // d(moved)/d(psi)
     const Eigen::Vector3d dmoved(-s * d.x() - c * d.y(), c * d.x() - s * d.y(), 0.0);
-    Covariance F = Covariance::Identity();
-    F.block<3, 1>(0, kPsi) = dmoved;
-    F.block<3, 3>(kVel, kVel).setZero();
-    F.block<3, 1>(kVel, kPsi) = dmoved / dt;
     x.head<3>() += moved;
     x.segment<3>(kVel) = moved / dt;
-    P = F * P * F.transpose();
+    // P = F P F^T with F = I but for column kPsi: dmoved in rows 0-2, dmoved / dt in rows
+    // kVel..kVel+2 (whose own diagonal is 0). Every entry of F P and of (F P) F^T is at most two
+    // nonzero terms, so these are the full product's numbers without its zeros (+ 0.0: a sum of
+    // zeros is +0, as the full product's is).
+    const Eigen::Vector3d dv = dmoved / dt;
+    for (int i = 0; i < 3; ++i) P.row(i) += dmoved(i) * P.row(kPsi);
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < kStateSize; ++j) P(kVel + i, j) = dv(i) * P(kPsi, j) + 0.0;
+    for (int j = 0; j < 3; ++j) P.col(j) += dmoved(j) * P.col(kPsi);
+    for (int j = 0; j < 3; ++j)
+      for (int i = 0; i < kStateSize; ++i) P(i, kVel + j) = P(i, kPsi) * dv(j) + 0.0;
     const double var = sigma_m * sigma_m;
     const int n = planar ? 2 : 3;
     for (int i = 0; i < n; ++i) {

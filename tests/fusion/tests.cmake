@@ -7,6 +7,7 @@ ips_unit_test(fuse_test
   fusion/fuse_lab_test.cpp
   fusion/fuse_tdoa_gyro_test.cpp
   fusion/fuse_tdoa_pair_test.cpp
+  fusion/fuse_filter_test.cpp
 )
 target_link_libraries(fuse_test PRIVATE ips_fuse ips_altitude ips_uwb_tdoa ips_uwb_twr ips_aoa ips_pdr)
 
