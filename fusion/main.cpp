@@ -10,6 +10,7 @@
 #include "core/drop_reasons.hpp"
 #include "core/node.hpp"
 #include "core/site_source.hpp"
+#include "core/tag_filter.hpp"
 #include "fusion/fuse_estimator.hpp"
 
 namespace {
@@ -29,16 +30,21 @@ int main(int argc, char** argv) {
       "angles).",
       kProgram};
   ips::CommonOptions opts;
-  ips::add_common_options(app, opts);
+  ips::add_common_options(app, opts, {.tags = true});
   int rc = 0;
   if (!ips::parse_command_line(app, opts, argc, argv, rc)) return rc;
   return ips::run_reporting_errors(kProgram, [&] {
     ips::Node node(kProgram, opts);
+    // --tags/--shard: other tags' messages skipped before the estimator (core/tag_filter.hpp).
+    ips::TagFilter tag_filter(node, opts);
     const std::string out = opts.channel(ips::channel::kPoseFused);
     ips::fusion::FuseEstimator est([&](const ips::pose_t& p) { node.publish(out, p); });
     // A tag's second dead-reckoning source, left unused on purpose: one info line, no fault.
     est.set_note_sink([](const std::string& text) { spdlog::info("{}: {}", kProgram, text); });
-    ips::provide_site(node, [&](const ips::Site& site) { est.set_site(site); });
+    ips::provide_site(node, [&](const ips::Site& site) {
+      tag_filter.set_site(site);
+      est.set_site(site);
+    });
     // Inputs that were not fused, by reason, in HEALTH (drops, last_error) once a second.
     ips::DropHealth drop_health;
     ips::ConsistencyHealth consistency_health;
@@ -55,21 +61,23 @@ int main(int argc, char** argv) {
     });
     node.subscribe<ips::uwb_range_t>(opts.channel(ips::channel::kUwbRange),
                                      [&](const ips::uwb_range_t& m, const std::string&) {
-                                       est.on_range(m);
+                                       if (tag_filter.pass(m.tag_id)) est.on_range(m);
                                      });
     node.subscribe<ips::uwb_rx_t>(opts.channel(ips::channel::kUwbRx),
                                   [&](const ips::uwb_rx_t& m, const std::string&) {
-                                    est.on_rx(m);
+                                    // A sync master's broadcast serves every tag: it always passes.
+                                    if (m.is_sync || tag_filter.pass(m.sender_id)) est.on_rx(m);
                                   });
     node.subscribe<ips::uwb_tdoa_t>(opts.channel("UWB_TDOA"),  // docs/channels.md
                                     [&](const ips::uwb_tdoa_t& m, const std::string&) {
-                                      est.on_pair(m);
+                                      if (tag_filter.pass(m.tag_id)) est.on_pair(m);
                                     });
     // An advertisement's angles are fused when its epoch closes: at the next event, or when the
     // bus has been quiet for the epoch window (message time estimated from the host clock).
     ips::utime_t last_aoa_utime = 0, last_aoa_host = 0;
     node.subscribe<ips::ble_aoa_t>(opts.channel(ips::channel::kBleAoa),
                                    [&](const ips::ble_aoa_t& m, const std::string&) {
+                                     if (!tag_filter.pass(m.tag_id)) return;
                                      est.on_aoa(m);
                                      // The newest time taken (a stamp far ahead is not).
                                      if (est.newest_angle_utime() != last_aoa_utime) {
@@ -83,28 +91,29 @@ int main(int argc, char** argv) {
     });
     node.subscribe<ips::imu_t>(opts.channel(ips::channel::kImu),
                                [&](const ips::imu_t& m, const std::string&) {
-                                 est.on_imu(m);
+                                 if (tag_filter.pass(m.device_id)) est.on_imu(m);
                                });
     node.subscribe<ips::pose_t>(opts.channel(ips::channel::kInsModule),
                                 [&](const ips::pose_t& m, const std::string&) {
-                                  est.on_ins_module(m);
+                                  if (tag_filter.pass(m.tag_id)) est.on_ins_module(m);
                                 });
     node.subscribe<ips::pose_t>(opts.channel(ips::channel::kPoseIns),
                                 [&](const ips::pose_t& m, const std::string&) {
-                                  est.on_pose_ins(m);
+                                  if (tag_filter.pass(m.tag_id)) est.on_pose_ins(m);
                                 });
     node.subscribe<ips::step_t>(opts.channel(ips::channel::kStep),
                                 [&](const ips::step_t& m, const std::string&) {
-                                  est.on_step(m);
+                                  if (tag_filter.pass(m.tag_id)) est.on_step(m);
                                 });
     node.subscribe<ips::altitude_t>(opts.channel(ips::channel::kAltitude),
                                     [&](const ips::altitude_t& m, const std::string&) {
-                                      est.on_altitude(m);
+                                      if (tag_filter.pass(m.tag_id)) est.on_altitude(m);
                                     });
     for (const char* kind : {ips::channel::kPoseTdoa, ips::channel::kPoseAoa}) {
       const std::string name = kind;
       node.subscribe<ips::pose_t>(opts.channel(kind),
                                   [&, name](const ips::pose_t& m, const std::string&) {
+                                    if (!tag_filter.pass(m.tag_id)) return;
                                     est.on_pose(m, name == ips::channel::kPoseTdoa ? "tdoa" : "aoa");
                                   });
     }

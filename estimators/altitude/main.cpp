@@ -16,6 +16,7 @@
 #include "core/log_input.hpp"
 #include "core/node.hpp"
 #include "core/site_source.hpp"
+#include "core/tag_filter.hpp"
 #include "core/text_escape.hpp"
 #include "estimators/altitude/altitude_estimator.hpp"
 #include "estimators/altitude/offset_calibration.hpp"
@@ -162,7 +163,7 @@ int main(int argc, char** argv) {
                "Parameters and sensor offsets: the site's estimators.altitude.",
                kProgram};
   ips::CommonOptions opts;
-  ips::add_common_options(app, opts);
+  ips::add_common_options(app, opts, {.tags = true});
   CalibrateOptions cal;
   CLI::App* calib = app.add_subcommand(
       "calibrate",
@@ -193,12 +194,20 @@ int main(int argc, char** argv) {
 
   return ips::run_reporting_errors(kProgram, [&] {
     ips::Node node(kProgram, opts);
+    // --tags/--shard: other tags' messages skipped before the estimator (core/tag_filter.hpp).
+    ips::TagFilter tag_filter(node, opts);
     const std::string out_channel = opts.channel(ips::channel::kAltitude);
     alt::AltitudeEstimator est([&](const ips::altitude_t& a) { node.publish(out_channel, a); });
-    ips::provide_site(node, [&](const ips::Site& site) { est.set_site(site); });
+    ips::provide_site(node, [&](const ips::Site& site) {
+      tag_filter.set_site(site);
+      est.set_site(site);
+    });
     node.subscribe<ips::baro_t>(
         opts.channel(ips::channel::kBaro),
-        [&](const ips::baro_t& m, const std::string&) { est.on_baro(m); });
+        [&](const ips::baro_t& m, const std::string&) {
+          // A reference station serves every tag: it always passes.
+          if (m.is_reference || tag_filter.pass(m.sensor_id)) est.on_baro(m);
+        });
     // Readings that gave no altitude, by reason, in HEALTH once a second, with the newest
     // problem in words ("no reference barometer heard yet: no altitude for T1").
     ips::DropHealth drop_health;

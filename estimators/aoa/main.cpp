@@ -6,6 +6,7 @@
 #include "core/drop_reasons.hpp"
 #include "core/node.hpp"
 #include "core/site_source.hpp"
+#include "core/tag_filter.hpp"
 #include "core/time.hpp"
 #include "estimators/aoa/aoa_estimator.hpp"
 
@@ -19,7 +20,7 @@ int main(int argc, char** argv) {
                "(POSE_AOA).",
                kProgram};
   ips::CommonOptions opts;
-  ips::add_common_options(app, opts);
+  ips::add_common_options(app, opts, {.tags = true});
   std::string method;
   app.add_option("--method", method,
                  "override the site's estimators.aoa method: ekf, or a per-epoch solver "
@@ -37,17 +38,23 @@ int main(int argc, char** argv) {
   }
   return ips::run_reporting_errors(kProgram, [&] {
     ips::Node node(kProgram, opts);
+    // --tags/--shard: other tags' messages skipped before the estimator (core/tag_filter.hpp).
+    ips::TagFilter tag_filter(node, opts);
     const std::string out_channel = opts.channel(ips::channel::kPoseAoa);
     ips::aoa::AoaEstimator est([&](const ips::pose_t& p) { node.publish(out_channel, p); });
     if (!method.empty())
       est.override_method(solver ? ips::aoa::AoaMethod::kPerEpoch : ips::aoa::AoaMethod::kEkf,
                           solver);
-    ips::provide_site(node, "ble_aoa", [&](const ips::Site& site) { est.set_site(site); });
+    ips::provide_site(node, "ble_aoa", [&](const ips::Site& site) {
+      tag_filter.set_site(site);
+      est.set_site(site);
+    });
     // The events' own clock, carried forward by the host clock while the bus is quiet: an epoch
     // closes when its window has passed in the events' time, also for a log played back.
     ips::utime_t last_event_utime = 0, last_event_host = 0;
     node.subscribe<ips::ble_aoa_t>(
         opts.channel(ips::channel::kBleAoa), [&](const ips::ble_aoa_t& m, const std::string&) {
+          if (!tag_filter.pass(m.tag_id)) return;
           est.on_event(m);
           // The newest time the estimator took (a stamp far ahead is not taken: time_guard.hpp).
           if (est.newest_event_utime() != last_event_utime) {

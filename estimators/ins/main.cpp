@@ -7,6 +7,7 @@
 #include "core/drop_reasons.hpp"
 #include "core/node.hpp"
 #include "core/site_source.hpp"
+#include "core/tag_filter.hpp"
 #include "estimators/ins/ins_estimator.hpp"
 
 namespace {
@@ -21,17 +22,24 @@ int main(int argc, char** argv) {
       "heading (POSE_INS). Start poses and parameters: the site's estimators.ins.",
       kProgram};
   ips::CommonOptions opts;
-  ips::add_common_options(app, opts);
+  ips::add_common_options(app, opts, {.tags = true});
   int rc = 0;
   if (!ips::parse_command_line(app, opts, argc, argv, rc)) return rc;
   return ips::run_reporting_errors(kProgram, [&] {
     ips::Node node(kProgram, opts);
+    // --tags/--shard: other tags' messages skipped before the estimator (core/tag_filter.hpp).
+    ips::TagFilter tag_filter(node, opts);
     const std::string out_channel = opts.channel(ips::channel::kPoseIns);
     ips::ins::InsEstimator est([&](const ips::pose_t& p) { node.publish(out_channel, p); });
-    ips::provide_site(node, [&](const ips::Site& site) { est.set_site(site); });
+    ips::provide_site(node, [&](const ips::Site& site) {
+      tag_filter.set_site(site);
+      est.set_site(site);
+    });
     node.subscribe<ips::imu_t>(
         opts.channel(ips::channel::kImu),
-        [&](const ips::imu_t& m, const std::string&) { est.on_imu(m); });
+        [&](const ips::imu_t& m, const std::string&) {
+          if (tag_filter.pass(m.device_id)) est.on_imu(m);
+        });
     // Samples that gave no pose, by reason, in HEALTH (drops, last_error) once a second.
     // A tag whose IMU shows no stance phases (not on a foot) gets no POSE_INS: said while it
     // lasts. ZUPT innovations against zupt_sigma_mps: HEALTH's consistency.

@@ -13,6 +13,7 @@
 #include "core/log_input.hpp"
 #include "core/node.hpp"
 #include "core/site_source.hpp"
+#include "core/tag_filter.hpp"
 #include "core/text_escape.hpp"
 #include "estimators/pdr/pdr_estimator.hpp"
 
@@ -100,7 +101,7 @@ int main(int argc, char** argv) {
                "positions (POSE_PDR) from its IMU (IMU), from the start pose in the site.",
                kProgram};
   ips::CommonOptions opts;
-  ips::add_common_options(app, opts);
+  ips::add_common_options(app, opts, {.tags = true});
   CalibrateOptions cal;
   CLI::App* calib = app.add_subcommand(
       "calibrate", "fit the step-length constant (estimators.pdr.step_k) from a log of a walk "
@@ -116,14 +117,21 @@ int main(int argc, char** argv) {
 
   return ips::run_reporting_errors(kProgram, [&] {
     ips::Node node(kProgram, opts);
+    // --tags/--shard: other tags' messages skipped before the estimator (core/tag_filter.hpp).
+    ips::TagFilter tag_filter(node, opts);
     const std::string step_channel = opts.channel(ips::channel::kStep);
     const std::string pose_channel = opts.channel(ips::channel::kPosePdr);
     pdr::PdrEstimator est([&](const ips::step_t& s) { node.publish(step_channel, s); },
                           [&](const ips::pose_t& p) { node.publish(pose_channel, p); });
-    ips::provide_site(node, [&](const ips::Site& site) { est.set_site(site); });
+    ips::provide_site(node, [&](const ips::Site& site) {
+      tag_filter.set_site(site);
+      est.set_site(site);
+    });
     node.subscribe<ips::imu_t>(
         opts.channel(ips::channel::kImu),
-        [&](const ips::imu_t& m, const std::string&) { est.on_imu(m); });
+        [&](const ips::imu_t& m, const std::string&) {
+          if (tag_filter.pass(m.device_id)) est.on_imu(m);
+        });
     // Samples that went into no step, by reason, in HEALTH (drops, last_error) once a second.
     ips::DropHealth drop_health;
     ips::ConsistencyHealth consistency_health;

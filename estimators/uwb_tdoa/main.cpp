@@ -14,6 +14,7 @@
 #include "core/log_input.hpp"
 #include "core/node.hpp"
 #include "core/site_source.hpp"
+#include "core/tag_filter.hpp"
 #include "core/text_escape.hpp"
 #include "estimators/uwb_tdoa/master_ranking.hpp"
 #include "estimators/uwb_tdoa/tdoa_estimator.hpp"
@@ -97,7 +98,7 @@ int main(int argc, char** argv) {
       "(UWB_TDOA, clocks synchronised upstream).",
       kProgram};
   ips::CommonOptions opts;
-  ips::add_common_options(app, opts);
+  ips::add_common_options(app, opts, {.tags = true});
   RankOptions rank_opts;
   CLI::App* rank = app.add_subcommand(
       "rank-masters",
@@ -122,18 +123,28 @@ int main(int argc, char** argv) {
 
   return ips::run_reporting_errors(kProgram, [&] {
     ips::Node node(kProgram, opts);
+    // --tags/--shard: other tags' messages skipped before the estimator (core/tag_filter.hpp).
+    ips::TagFilter tag_filter(node, opts);
     const std::string pose_channel = opts.channel(ips::channel::kPoseTdoa);
     const std::string clock_channel = opts.channel(ips::channel::kClock);
     ips::uwb_tdoa::TdoaEstimator est(
         [&](const ips::pose_t& p) { node.publish(pose_channel, p); },
         [&](const ips::clock_t& c) { node.publish(clock_channel, c); });
-    ips::provide_site(node, "uwb_tdoa", [&](const ips::Site& site) { est.set_site(site); });
+    ips::provide_site(node, "uwb_tdoa", [&](const ips::Site& site) {
+      tag_filter.set_site(site);
+      est.set_site(site);
+    });
     node.subscribe<ips::uwb_rx_t>(
         opts.channel(ips::channel::kUwbRx),
-        [&](const ips::uwb_rx_t& m, const std::string&) { est.on_rx(m); });
+        [&](const ips::uwb_rx_t& m, const std::string&) {
+          // A sync master's broadcast serves every tag: it always passes.
+          if (m.is_sync || tag_filter.pass(m.sender_id)) est.on_rx(m);
+        });
     node.subscribe<ips::uwb_tdoa_t>(
         opts.channel("UWB_TDOA"),  // docs/channels.md
-        [&](const ips::uwb_tdoa_t& m, const std::string&) { est.on_pair(m); });
+        [&](const ips::uwb_tdoa_t& m, const std::string&) {
+          if (tag_filter.pass(m.tag_id)) est.on_pair(m);
+        });
     // Reports that gave no pose or clock, by reason, in HEALTH once a second; outliers gated and
     // blinks before the clocks are synchronised are counted without marking the process degraded.
     ips::DropHealth drop_health;

@@ -11,6 +11,7 @@
 #include "core/drop_reasons.hpp"
 #include "core/node.hpp"
 #include "core/site_source.hpp"
+#include "core/tag_filter.hpp"
 #include "core/text_escape.hpp"
 #include "estimators/zones/zone_monitor.hpp"
 
@@ -47,7 +48,7 @@ int main(int argc, char** argv) {
       "zones: and alerts:).",
       kProgram};
   ips::CommonOptions opts;
-  ips::add_common_options(app, opts);
+  ips::add_common_options(app, opts, {.tags = true});
   std::string pose_channel = ips::channel::kPoseFused;
   app.add_option("--pose-channel", pose_channel,
                  "the poses to watch (TRUTH, POSE_UWB, ...); its name is in every event")
@@ -62,6 +63,8 @@ int main(int argc, char** argv) {
 
   return ips::run_reporting_errors(kProgram, [&] {
     ips::Node node(kProgram, opts);
+    // --tags/--shard: other tags' messages skipped before the estimator (core/tag_filter.hpp).
+    ips::TagFilter tag_filter(node, opts);
     const std::string event_channel = opts.channel(ips::channel::kZoneEvent);
     const std::string alert_channel = opts.channel(ips::channel::kAlert);
     ips::zones::ZoneMonitorOptions mo;
@@ -85,15 +88,18 @@ int main(int argc, char** argv) {
       processes_mark.follow(monitor.processes_clock());
     };
     ips::provide_site(node, [&](const ips::Site& site) {
+      tag_filter.set_site(site);
       monitor.set_site(site);
       follow();
     });
     node.subscribe<ips::pose_t>(pose_channel, [&](const ips::pose_t& m, const std::string&) {
+      if (!tag_filter.pass(m.tag_id)) return;
       monitor.on_pose(m);
       follow();
     });
     node.subscribe<ips::altitude_t>(opts.channel(ips::channel::kAltitude),
                                     [&](const ips::altitude_t& m, const std::string&) {
+                                      if (!tag_filter.pass(m.tag_id)) return;
                                       monitor.on_altitude(m);
                                       follow();
                                     });

@@ -43,8 +43,8 @@ def health(data):
              parse_errors=r.take('q'), drops=r.take('q'), last_error=r.string(),
              uptime_us=r.take('q'), kernel_drops=r.take('q'), queue_drops=r.take('q'),
              seq_lost=r.take('q'), recv_buf_bytes=r.take('i'))
-    # consistency (issue 22) and version (issue 23) came later: absent from older messages.
-    for name in ('consistency', 'version'):
+    # consistency (issue 22), version and note (issue 23) came later: absent from older messages.
+    for name in ('consistency', 'version', 'note'):
         h[name] = r.string() if r.i < len(r.data) else None
     return h
 
