@@ -258,7 +258,12 @@ class FuseEstimator {
     // range_bias.hpp) from the last epoch's ranges (value: less the configured bias only).
     uwb_twr::PairOffsets offsets;
     bool offsets_set = false;
-    std::deque<Measurement> epoch_ranges;
+    struct RangeSample {  // what the offsets are learned from, of a range Measurement
+      utime_t t = 0;
+      int anchor = -1;
+      double value = 0;
+    };
+    std::deque<RangeSample> epoch_ranges;
     utime_t last_offsets_t = 0;
     utime_t newest = 0;
     bool tight_tdoa = false;  // blinks fused: POSE_TDOA is not

@@ -58,7 +58,7 @@ void FuseEstimator::on_range(const uwb_range_t& m) {
 
 void FuseEstimator::learn_offsets(Track& t, const Measurement& r) {
   if (!radio_.learn_bias) return;
-  t.epoch_ranges.push_back(r);
+  t.epoch_ranges.push_back({r.t, r.anchor, r.value});
   const utime_t window = s_to_utime(params_.epoch_window_s);
   while (t.epoch_ranges.size() > 64 ||
          (t.epoch_ranges.size() > 1 && r.t - t.epoch_ranges.front().t > window))

@@ -76,11 +76,14 @@ FuseEstimator::Track* FuseEstimator::find_or_add_track(const std::string& tag_id
     last_gap_ = printable(tag_id) + ": " + text;
   }
   // A start pose in the site wins over everything else, for the first start.
-  const Tag* tag = site_->find_tag(tag_id);
-  if (!track.initialised && !track.ever_started && tag && tag->has_start()) {
-    Eigen::Vector3d p = tag->start_position;
-    if (!std::isfinite(p.z())) p.z() = std::isfinite(tag->height_m) ? tag->height_m : 0.0;
-    start(tag_id, track, t, p, params_.start_sigma_m);
+  // (The site looked up only then: not for every message of a running track.)
+  if (!track.initialised && !track.ever_started) {
+    const Tag* tag = site_->find_tag(tag_id);
+    if (tag && tag->has_start()) {
+      Eigen::Vector3d p = tag->start_position;
+      if (!std::isfinite(p.z())) p.z() = std::isfinite(tag->height_m) ? tag->height_m : 0.0;
+      start(tag_id, track, t, p, params_.start_sigma_m);
+    }
   }
   return &track;
 }
