@@ -4,6 +4,8 @@
 //    (warm-started from 20 cm off, as from the previous epoch) and 3D LM with elevations;
 //  - one whole advertisement through AoaEstimator::on_event, EKF and per-epoch LM: four events
 //    grouped into an epoch, corrected, duplicates resolved, solved or filtered, published.
+//  - the epoch grouping alone (epoch_grouper.hpp) with 10 tags advertising at 10 Hz to four
+//    anchors, interleaved: the plumbing every event goes through whatever the tracker.
 // Run: build/release/bin/ips-bench --benchmark_filter=aoa
 #include <benchmark/benchmark.h>
 
@@ -16,6 +18,7 @@
 #include "core/geometry.hpp"
 #include "estimators/aoa/aoa_estimator.hpp"
 #include "estimators/aoa/aoa_solvers.hpp"
+#include "estimators/aoa/epoch_grouper.hpp"
 #include "estimators/aoa/models/aoa_bearing.hpp"
 
 namespace {
@@ -115,3 +118,34 @@ BENCHMARK_CAPTURE(BM_AoaAdvertisement, lm, false)
     ->Name("aoa advertisement through AoaEstimator/per-epoch LM, 4 anchors");
 
 }  // namespace
+
+// Items are events. Each tag's four events 5 ms apart, the tags 10 ms apart, every 100 ms.
+void BM_AoaEpochGrouping(benchmark::State& state) {
+  constexpr int kTags = 10;
+  int64_t epochs = 0, grouped = 0;
+  EpochGrouper grouper(0.06, [&](Epoch& e) {
+    ++epochs;
+    grouped += static_cast<int64_t>(e.events.size());
+  });
+  std::array<std::string, kTags> tags;
+  for (int k = 0; k < kTags; ++k) tags[static_cast<size_t>(k)] = "T" + std::to_string(k + 1);
+  AoaEvent e;
+  e.azimuth_deg = 10;
+  e.rssi_dbm = -60;
+  int64_t t = 1767225600000000;
+  for (auto _ : state) {
+    for (int k = 0; k < kTags; ++k) {
+      for (size_t a = 0; a < 4; ++a) {
+        e.utime = t + 10000 * k + 5000 * static_cast<int64_t>(a);
+        e.anchor = a;
+        ++e.order;
+        grouper.add(tags[static_cast<size_t>(k)], e);
+      }
+    }
+    t += 100000;
+  }
+  state.SetItemsProcessed(state.iterations() * kTags * 4);
+  state.counters["epochs"] = static_cast<double>(epochs);
+  benchmark::DoNotOptimize(grouped);
+}
+BENCHMARK(BM_AoaEpochGrouping)->Name("aoa epoch grouping, 10 tags x 4 anchors");
