@@ -140,6 +140,17 @@ grep -qx 'ExecStart="ips-no-such-program"' "$WORK/units-nobin/ips-bench-twr.serv
 # The example in config/ is valid, and gives units for each of its hosts: refused where its
 # bin_dir is not installed, written with --bin-dir where the programs are built.
 "$D" check "$ROOT/config/deploy/lab-3-hosts.yaml" >/dev/null || fail "config/deploy/lab-3-hosts.yaml"
+# The sharded example: one entry, three ips-fuse with --shard k/3 on three hosts, and the unit
+# of one of them runs it so.
+out=$("$D" check "$ROOT/config/deploy/lab-shards.yaml") || fail "config/deploy/lab-shards.yaml"
+for k in 1 2 3; do
+  echo "$out" | grep -qx "  fuse-$k: ips-fuse --shard $k/3  \[restart on-failure\]" ||
+    fail "lab-shards.yaml: no fuse-$k with --shard $k/3: $out"
+done
+"$D" systemd "$ROOT/config/deploy/lab-shards.yaml" --host fuse-b --out "$WORK/units-shard" \
+  --bin-dir "$BIN" --systemd-version 254 >/dev/null || fail "lab-shards.yaml: systemd --host fuse-b"
+grep -qx "ExecStart=\"$BIN/ips-fuse\" \"--shard\" \"2/3\"" "$WORK/units-shard/ips-lab-fuse-2.service" ||
+  fail "lab-shards.yaml: ExecStart of fuse-2: $(grep ExecStart "$WORK/units-shard/"*.service)"
 if [ ! -d /usr/local/lib/ips-fusion/bin ]; then
   expect_error_saying "--allow-missing" "$D" systemd "$ROOT/config/deploy/lab-3-hosts.yaml" --host compute --out "$WORK/example-refused"
 fi

@@ -434,6 +434,80 @@ hosts: []
               HasSubstr("test.yaml:3: hosts: expected a list of at least one host"));
 }
 
+// Partitioned sites (issue 25 item 4): "fuse, 3 shards on hosts a, b, c".
+TEST(DeploymentFile, ShardedProcessBecomesOneInstancePerShardOnItsHosts) {
+  const Deployment d = parse(R"(name: lab
+lcm_url: "udpm://239.255.76.67:7667?ttl=1"
+hosts:
+  - name: a
+    processes:
+      - {name: twr, command: ips-uwb-twr}
+  - name: b
+  - name: c
+sharded:
+  - name: fuse
+    command: ips-fuse
+    args: [--log-level, warn]
+    restart: always
+    shards: 3
+    hosts: [a, b, c]
+  - name: zones
+    command: ips-zones
+    shards: 4
+    hosts: [b, c]
+  - {name: view, command: ips-view, shards: 1, hosts: [b], after: [fuse-2]}
+)");
+  ASSERT_EQ(d.hosts.size(), 3u);
+  EXPECT_THAT(process_names(d.hosts[0]), ElementsAre("twr", "fuse-1"));
+  // zones-1 and zones-3 on b (round robin over [b, c]); view-1 after fuse-2, which b runs.
+  EXPECT_THAT(process_names(d.hosts[1]), ElementsAre("fuse-2", "zones-1", "zones-3", "view-1"));
+  EXPECT_THAT(process_names(d.hosts[2]), ElementsAre("fuse-3", "zones-2", "zones-4"));
+  const Process& f2 = d.hosts[1].processes[0];
+  EXPECT_EQ(f2.command, "ips-fuse");
+  EXPECT_THAT(f2.args, ElementsAre("--log-level", "warn", "--shard", "2/3"));
+  EXPECT_EQ(f2.restart, Restart::kAlways);
+  EXPECT_THAT(d.hosts[2].processes[2].args, ElementsAre("--shard", "4/4"));
+  EXPECT_THAT(d.hosts[1].processes[3].after, ElementsAre("fuse-2"));
+  EXPECT_THAT(d.hosts[1].processes[3].args, ElementsAre("--shard", "1/1"));
+}
+
+TEST(DeploymentFileErrors, ShardedProcessMistakes) {
+  const std::string head = R"(name: lab
+lcm_url: "udpm://239.255.76.67:7667?ttl=1"
+hosts:
+  - name: a
+    processes:
+      - {name: fuse-2, command: ips-sim}
+  - name: b
+sharded:
+)";
+  EXPECT_THAT(parse_error(head + "  - {name: fuse, command: ips-fuse, shards: 3, hosts: [a, x]}\n"),
+              HasSubstr("test.yaml:9: sharded[0].hosts[1]: no host 'x' (hosts: a, b)"));
+  EXPECT_THAT(parse_error(head + "  - {name: fuse, command: ips-fuse, shards: 0, hosts: [a]}\n"),
+              HasSubstr("sharded[0].shards: must be in [1, 1024]"));
+  EXPECT_THAT(parse_error(head + "  - {name: fuse, command: ips-fuse, hosts: [a]}\n"),
+              HasSubstr("sharded[0]"));
+  EXPECT_THAT(parse_error(head + "  - {name: fuse, command: ips-fuse, shards: 3, hosts: []}\n"),
+              HasSubstr("sharded[0].hosts: expected a list of at least one host"));
+  EXPECT_THAT(
+      parse_error(head +
+                  "  - {name: fuse, command: ips-fuse, shards: 2, hosts: [b], args: [--shard, 1/2]}\n"),
+      HasSubstr("sharded[0].args: --shard is set by shards: (instance k of N gets --shard k/N)"));
+  EXPECT_THAT(parse_error(head + "  - {name: fuse, command: ips-fuse, shards: 2, hosts: [b]}\n"),
+              HasSubstr("sharded[0].name: shard 2 would be named 'fuse-2', which another process "
+                        "has"));
+  EXPECT_THAT(parse_error(head + "  - {name: fuse, command: ips-fuse, shards: 2, hosts: [b], "
+                                 "colour: red}\n"),
+              HasSubstr("sharded[0].colour: unknown field"));
+  // A host with neither processes nor shards.
+  EXPECT_THAT(parse_error(head + "  - {name: fuse, command: ips-fuse, shards: 1, hosts: [a]}\n"),
+              HasSubstr("test.yaml:7: hosts[1]: host 'b' has no processes (and no shards)"));
+  // after: names a process of each host the shards land on.
+  EXPECT_THAT(parse_error(head + "  - {name: f, command: ips-fuse, shards: 2, hosts: [a, b], "
+                                 "after: [fuse-2]}\n"),
+              HasSubstr("sharded[0].after: no process 'fuse-2' on host 'b'"));
+}
+
 TEST(DeploymentFileErrors, BackoffOutsideItsBounds) {
   const std::string hosts = R"(hosts:
   - name: a

@@ -4,6 +4,8 @@
 #include <functional>
 #include <set>
 
+#include "core/tag_selector.hpp"
+
 namespace ips::deploy {
 
 namespace {
@@ -135,10 +137,48 @@ std::string Deployment::host_names() const {
   return s;
 }
 
+namespace {
+
+// One process entry of a host's `processes` or of `sharded` (whose two extra keys the caller
+// reads); its name is checked against, and added to, `names`.
+Process parse_process(const YamlField& f, const Backoff& backoff, double stop_timeout,
+                      std::set<std::string>& names, bool sharded) {
+  if (sharded) {
+    f.check_keys({"name", "command", "args", "restart", "after", "environment", "restart_backoff",
+                  "stop_timeout_s", "shards", "hosts"});
+  } else {
+    f.check_keys({"name", "command", "args", "restart", "after", "environment", "restart_backoff",
+                  "stop_timeout_s"});
+  }
+  Process p;
+  p.name = f.required("name").as_string();
+  if (!valid_name(p.name, 32)) f["name"].fail("must be 1 to 32 of a-z, 0-9 and '-'");
+  if (!sharded && !names.insert(p.name).second)
+    f["name"].fail("duplicate process '" + p.name + "' (names are unique in the deployment)");
+  p.command = text_field(f.required("command"), 4096);
+  if (p.command.empty() || p.command.find(' ') != std::string::npos)
+    f["command"].fail("one program (a name or a path, no spaces): put its arguments in args");
+  p.args = string_list(f["args"], kMaxArgs);
+  p.restart = parse_restart(f["restart"]);
+  p.after = string_list(f["after"], kMaxProcesses);
+  p.environment = parse_environment(f["environment"]);
+  p.backoff = parse_backoff(f["restart_backoff"], backoff);
+  p.stop_timeout_s = f.get_double_in("stop_timeout_s", stop_timeout, 0.1, 600);
+  return p;
+}
+
+// A host's processes as parsed, each with its entry (for errors), before they are ordered.
+struct HostEntries {
+  std::vector<Process> list;
+  std::vector<YamlField> where;
+};
+
+}  // namespace
+
 Deployment parse_deployment(const YamlField& root) {
   if (!root.is_map()) root.fail("expected a map (name, lcm_url, hosts, ...)");
   root.check_keys({"name", "lcm_url", "bin_dir", "user", "working_dir", "environment", "restart",
-                   "stop_timeout_s", "hosts"});
+                   "stop_timeout_s", "hosts", "sharded"});
   Deployment d;
   d.name = root.required("name").as_string();
   if (!valid_name(d.name, 32)) root["name"].fail("must be 1 to 32 of a-z, 0-9 and '-'");
@@ -162,7 +202,11 @@ Deployment parse_deployment(const YamlField& root) {
   const YamlField hosts = root.required("hosts");
   if (!hosts.is_sequence() || hosts.size() == 0) hosts.fail("expected a list of at least one host");
   if (hosts.size() > kMaxHosts) hosts.fail("more than " + std::to_string(kMaxHosts) + " hosts");
+  const YamlField sharded = root["sharded"];
+  if (sharded.defined() && !sharded.is_sequence())
+    sharded.fail("expected a list of processes, each with shards: and hosts:");
   std::set<std::string> host_names, process_names;
+  std::vector<HostEntries> entries;
   size_t total = 0;
   for (size_t i = 0; i < hosts.size(); ++i) {
     const YamlField h = hosts[i];
@@ -173,40 +217,74 @@ Deployment parse_deployment(const YamlField& root) {
     if (!host_names.insert(host.name).second) h["name"].fail("duplicate host '" + host.name + "'");
     host.hostname = h["hostname"].defined() ? text_field(h["hostname"], 255) : host.name;
     if (host.hostname.empty()) h["hostname"].fail("must not be empty");
-    const YamlField procs = h.required("processes");
-    if (!procs.is_sequence() || procs.size() == 0)
+    // A host may have only shards (sharded: below); otherwise it needs processes.
+    const YamlField procs = h["processes"];
+    if (procs.defined() && (!procs.is_sequence() || procs.size() == 0))
       procs.fail("expected a list of at least one process");
-    std::vector<Process> list;
-    for (size_t j = 0; j < procs.size(); ++j) {
-      const YamlField f = procs[j];
-      f.check_keys({"name", "command", "args", "restart", "after", "environment",
-                    "restart_backoff", "stop_timeout_s"});
-      Process p;
-      p.name = f.required("name").as_string();
-      if (!valid_name(p.name, 32)) f["name"].fail("must be 1 to 32 of a-z, 0-9 and '-'");
-      if (!process_names.insert(p.name).second)
-        f["name"].fail("duplicate process '" + p.name + "' (names are unique in the deployment)");
-      p.command = text_field(f.required("command"), 4096);
-      if (p.command.empty() || p.command.find(' ') != std::string::npos)
-        f["command"].fail("one program (a name or a path, no spaces): put its arguments in args");
-      p.args = string_list(f["args"], kMaxArgs);
-      p.restart = parse_restart(f["restart"]);
-      p.after = string_list(f["after"], kMaxProcesses);
-      p.environment = parse_environment(f["environment"]);
-      p.backoff = parse_backoff(f["restart_backoff"], backoff);
-      p.stop_timeout_s = f.get_double_in("stop_timeout_s", stop_timeout, 0.1, 600);
-      list.push_back(std::move(p));
-      if (++total > kMaxProcesses) f.fail("more than " + std::to_string(kMaxProcesses) + " processes");
+    HostEntries e;
+    for (size_t j = 0; procs.defined() && j < procs.size(); ++j) {
+      e.list.push_back(parse_process(procs[j], backoff, stop_timeout, process_names, false));
+      e.where.push_back(procs[j]);
+      if (++total > kMaxProcesses)
+        procs[j].fail("more than " + std::to_string(kMaxProcesses) + " processes");
     }
-    for (size_t j = 0; j < list.size(); ++j)
-      for (const std::string& a : list[j].after) {
-        const bool here = std::any_of(list.begin(), list.end(),
-                                      [&](const Process& p) { return p.name == a; });
-        if (!here) procs[j]["after"].fail("no process '" + a + "' on host '" + host.name + "'");
-        if (a == list[j].name) procs[j]["after"].fail("a process cannot start after itself");
-      }
-    host.processes = start_order(std::move(list), procs);
     d.hosts.push_back(std::move(host));
+    entries.push_back(std::move(e));
+  }
+  // A sharded process: `shards: N` instances, instance k named <name>-<k> with --shard k/N added
+  // to its args, on the hosts listed, round robin (instance k on hosts[(k - 1) mod len]).
+  for (size_t i = 0; sharded.defined() && i < sharded.size(); ++i) {
+    const YamlField f = sharded[i];
+    if (!f.is_map()) f.fail("expected a process with shards: and hosts:");
+    const Process base = parse_process(f, backoff, stop_timeout, process_names, true);
+    const int64_t shards = f.required("shards").as_int();
+    if (shards < 1 || shards > kMaxShards)
+      f["shards"].fail("must be in [1, " + std::to_string(kMaxShards) + "]");
+    const std::vector<std::string> on = string_list(f.required("hosts"), kMaxHosts);
+    if (on.empty()) f["hosts"].fail("expected a list of at least one host");
+    for (const std::string& a : base.args)
+      if (a == "--shard" || a.rfind("--shard=", 0) == 0)
+        f["args"].fail("--shard is set by shards: (instance k of N gets --shard k/N)");
+    std::vector<size_t> host_index;
+    for (size_t j = 0; j < on.size(); ++j) {
+      const auto it = std::find_if(d.hosts.begin(), d.hosts.end(),
+                                   [&](const Host& h) { return h.name == on[j]; });
+      if (it == d.hosts.end())
+        f["hosts"][j].fail("no host '" + on[j] + "' (hosts: " + d.host_names() + ")");
+      host_index.push_back(static_cast<size_t>(it - d.hosts.begin()));
+    }
+    for (int64_t k = 1; k <= shards; ++k) {
+      Process p = base;
+      p.name = base.name + "-" + std::to_string(k);
+      if (!valid_name(p.name, 32))
+        f["name"].fail("'" + p.name + "', the name of shard " + std::to_string(k) +
+                       ", is longer than 32 characters");
+      if (!process_names.insert(p.name).second)
+        f["name"].fail("shard " + std::to_string(k) + " would be named '" + p.name +
+                       "', which another process has (names are unique in the deployment)");
+      p.args.push_back("--shard");
+      p.args.push_back(std::to_string(k) + "/" + std::to_string(shards));
+      HostEntries& e = entries[host_index[static_cast<size_t>(k - 1) % host_index.size()]];
+      e.list.push_back(std::move(p));
+      e.where.push_back(f);
+      if (++total > kMaxProcesses)
+        f["shards"].fail("more than " + std::to_string(kMaxProcesses) + " processes in all");
+    }
+  }
+  for (size_t i = 0; i < d.hosts.size(); ++i) {
+    HostEntries& e = entries[i];
+    if (e.list.empty())
+      hosts[i].fail("host '" + d.hosts[i].name + "' has no processes (and no shards)");
+    for (size_t j = 0; j < e.list.size(); ++j)
+      for (const std::string& a : e.list[j].after) {
+        const bool here = std::any_of(e.list.begin(), e.list.end(),
+                                      [&](const Process& p) { return p.name == a; });
+        if (!here)
+          e.where[j]["after"].fail("no process '" + a + "' on host '" + d.hosts[i].name + "'");
+        if (a == e.list[j].name) e.where[j]["after"].fail("a process cannot start after itself");
+      }
+    const YamlField where = hosts[i]["processes"].defined() ? hosts[i]["processes"] : hosts[i];
+    d.hosts[i].processes = start_order(std::move(e.list), where);
   }
   return d;
 }

@@ -53,6 +53,9 @@ struct Deployment {
   std::string host_names() const;
 };
 
+// A `sharded:` entry (a process with `shards: N` and `hosts: [...]`) becomes N processes
+// <name>-1 .. <name>-N with `--shard k/N` added to their args, on those hosts round robin, each
+// after the host's own processes.
 // Throws ConfigError "file:line: field: reason" on anything wrong: unknown keys, bad names,
 // duplicate names, `after` naming a process that is not on the same host, a cycle of `after`,
 // bounds, an lcm_url that is not an LCM URL.
