@@ -8,7 +8,8 @@
 
 namespace ips {
 
-std::unique_ptr<LogInput> LogInput::open(const std::string& program, const std::string& path) {
+std::unique_ptr<LogInput> LogInput::open(const std::string& program, const std::string& path,
+                                         bool map) {
   namespace fs = std::filesystem;
   std::error_code ec;
   const auto status = fs::status(path, ec);
@@ -28,15 +29,26 @@ std::unique_ptr<LogInput> LogInput::open(const std::string& program, const std::
   }
   const auto size = fs::file_size(path, ec);
   return std::unique_ptr<LogInput>(
-      new LogInput(program, path, f, ec ? -1 : static_cast<int64_t>(size)));
+      new LogInput(program, path, f, ec ? -1 : static_cast<int64_t>(size), map));
 }
 
-LogInput::LogInput(std::string program, std::string path, std::FILE* file, int64_t size)
+namespace {
+// The file mapped when asked for and possible (an empty or unmappable file is read through stdio).
+std::unique_ptr<LogByteSource> log_source(const std::string& path, std::FILE* file, bool map) {
+  if (map) {
+    auto mapped = std::make_unique<MappedFileLogSource>(path);
+    if (!mapped->failed()) return mapped;
+  }
+  return std::make_unique<FileLogSource>(file);
+}
+}  // namespace
+
+LogInput::LogInput(std::string program, std::string path, std::FILE* file, int64_t size, bool map)
     : program_(std::move(program)),
       path_(std::move(path)),
       file_(file),
       size_(size),
-      source_(std::make_unique<FileLogSource>(file)),
+      source_(log_source(path_, file, map)),
       reader_(std::make_unique<LogReader>(*source_)),
       progress_(program_) {}
 
@@ -49,7 +61,7 @@ LogInput::~LogInput() {
 const LogEvent* LogInput::next() {
   const LogEvent* e = reader_->next();
   while (e && e->channel.empty()) e = reader_->next();
-  if (e && progress_.enabled() && size_ > 0)
+  if (e && show_progress_ && progress_.enabled() && size_ > 0)
     progress_.update(static_cast<double>(reader_->stats().read_up_to) / static_cast<double>(size_),
                      reader_->stats().events);
   return e;

@@ -14,8 +14,11 @@ namespace ips {
 class LogInput {
  public:
   // nullptr, after one line "<program>: error: cannot read log '<path>': <why>", when the path
-  // does not exist, is not a regular file or cannot be opened.
-  static std::unique_ptr<LogInput> open(const std::string& program, const std::string& path);
+  // does not exist, is not a regular file or cannot be opened. map: read the file mapped into
+  // memory, in place (MappedFileLogSource: for a file that does not grow while it is read; the
+  // events' bytes then stay valid as long as this LogInput), else through stdio.
+  static std::unique_ptr<LogInput> open(const std::string& program, const std::string& path,
+                                        bool map = false);
   ~LogInput();
   LogInput(const LogInput&) = delete;
   LogInput& operator=(const LogInput&) = delete;
@@ -25,6 +28,8 @@ class LogInput {
   // stats().empty_channel_events.
   const LogEvent* next();
   const LogReadStats& stats() const { return reader_->stats(); }
+  // No progress line (several logs read at once, each on its own thread).
+  void hide_progress() { show_progress_ = false; }
   int64_t size() const { return size_; }
 
   // After the last event: ends the progress line, then says on stderr, each only when it applies:
@@ -39,14 +44,15 @@ class LogInput {
   bool finish(const std::string& done);
 
  private:
-  LogInput(std::string program, std::string path, std::FILE* file, int64_t size);
+  LogInput(std::string program, std::string path, std::FILE* file, int64_t size, bool map);
 
   std::string program_, path_;
   std::FILE* file_;
   int64_t size_;
-  std::unique_ptr<FileLogSource> source_;
+  std::unique_ptr<LogByteSource> source_;
   std::unique_ptr<LogReader> reader_;
   ProgressLine progress_;
+  bool show_progress_ = true;
 };
 
 }  // namespace ips

@@ -1,7 +1,10 @@
 #include "core/log_reader.hpp"
 
 #include <lcm/lcm.h>
+#include <fcntl.h>
+#include <sys/mman.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cstring>
@@ -37,6 +40,32 @@ size_t FileLogSource::read(uint8_t* out, size_t capacity) {
   return got;
 }
 
+MappedFileLogSource::MappedFileLogSource(const std::string& path) {
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) return;
+  struct stat st {};
+  if (fstat(fd, &st) == 0 && S_ISREG(st.st_mode) && st.st_size > 0) {
+    void* p = ::mmap(nullptr, static_cast<size_t>(st.st_size), PROT_READ, MAP_PRIVATE, fd, 0);
+    if (p != MAP_FAILED) {
+      data_ = static_cast<const uint8_t*>(p);
+      size_ = static_cast<size_t>(st.st_size);
+      ::madvise(p, size_, MADV_SEQUENTIAL);
+    }
+  }
+  ::close(fd);
+}
+
+MappedFileLogSource::~MappedFileLogSource() {
+  if (data_) ::munmap(const_cast<uint8_t*>(data_), size_);
+}
+
+size_t MappedFileLogSource::read(uint8_t* out, size_t capacity) {
+  const size_t n = std::min(capacity, size_ - pos_);
+  if (n > 0) std::memcpy(out, data_ + pos_, n);
+  pos_ += n;
+  return n;
+}
+
 size_t MemoryLogSource::read(uint8_t* out, size_t capacity) {
   const size_t n = std::min({capacity, max_read_, bytes_.size() - pos_});
   if (n > 0) std::memcpy(out, bytes_.data() + pos_, n);
@@ -47,6 +76,12 @@ size_t MemoryLogSource::read(uint8_t* out, size_t capacity) {
 LogReader::LogReader(LogByteSource& source, size_t chunk_bytes)
     : source_(source), chunk_(std::max<size_t>(chunk_bytes, 1)) {
   stats_.input_size = source_.size();
+  const std::span<const uint8_t> whole = source_.whole();
+  if (whole.data() != nullptr) {  // read in place: nothing to fill, the end is known
+    base_ = whole.data();
+    end_ = whole.size();
+    eof_ = true;
+  }
 }
 
 // Makes at least n unconsumed bytes available unless the input ends first. The buffer grows at
@@ -69,6 +104,7 @@ bool LogReader::fill(size_t n) {
         want = std::min(want, end_ + static_cast<size_t>(std::max<int64_t>(unread, 0)) + 4096);
       }
       buf_.resize(std::max(want, end_ + 1));
+      base_ = buf_.data();
     }
     const size_t got = source_.read(buf_.data() + end_, buf_.size() - end_);
     if (got == 0) {
@@ -86,11 +122,11 @@ void LogReader::consume(size_t n) {
 }
 
 bool LogReader::magic_at(size_t i) const {
-  return std::memcmp(buf_.data() + i, kMagicBytes, 4) == 0;
+  return std::memcmp(base_ + i, kMagicBytes, 4) == 0;
 }
 
 size_t LogReader::find_magic(size_t from, size_t to) const {
-  const uint8_t* base = buf_.data();
+  const uint8_t* base = base_;
   for (size_t i = from; i < to;) {
     const void* hit = std::memchr(base + i, kMagicBytes[0], to - i);
     if (!hit) break;
@@ -133,7 +169,7 @@ void LogReader::add_garbage(int64_t start, int64_t n) {
 void LogReader::finish() {
   const size_t n = avail();
   const int64_t start = stats_.read_up_to;
-  if (n > 0 && std::memcmp(buf_.data() + begin_, kMagicBytes, n) == 0)
+  if (n > 0 && std::memcmp(base_ + begin_, kMagicBytes, n) == 0)
     stats_.truncated_tail_bytes += static_cast<int64_t>(n);
   else
     add_garbage(start, static_cast<int64_t>(n));
@@ -160,7 +196,7 @@ const LogEvent* LogReader::next() {
       done_ = true;
       break;
     }
-    const uint8_t* h = &buf_[begin_];
+    const uint8_t* h = base_ + begin_;
     const auto channel_len = static_cast<int32_t>(be32(h + 20));
     const auto data_len = static_cast<int32_t>(be32(h + 24));
     if (channel_len < 0 || channel_len > kMaxChannelLength || data_len < 0 ||
@@ -192,13 +228,13 @@ const LogEvent* LogReader::next() {
     // word cut short counts). Anything else means damage began inside it: its bytes or its
     // length are not what was recorded.
     const size_t follow = std::min<size_t>(avail() - size, 4);
-    if (std::memcmp(buf_.data() + begin_ + size, kMagicBytes, follow) != 0) {
+    if (std::memcmp(base_ + begin_ + size, kMagicBytes, follow) != 0) {
       const Scan s = scan_to_magic(1);
       add_garbage(start, s.skipped);
       if (!s.found) finish();
       continue;
     }
-    h = &buf_[begin_];
+    h = base_ + begin_;
     event_.eventnum = static_cast<int64_t>(be64(h + 4));
     event_.timestamp_us = static_cast<int64_t>(be64(h + 12));
     event_.channel.assign(reinterpret_cast<const char*>(h + kHeaderBytes),

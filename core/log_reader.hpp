@@ -52,6 +52,10 @@ class LogByteSource {
   virtual int64_t size() const = 0;
   // True when reading stopped because of an I/O error rather than the end of the input.
   virtual bool failed() const { return false; }
+  // All of the input at once, when it is in memory as a whole (a mapped file): the reader then
+  // reads it in place, without copying, and its events' bytes stay valid as long as the source.
+  // Empty (a null data()) otherwise.
+  virtual std::span<const uint8_t> whole() const { return {}; }
 };
 
 // Reads a std::FILE* from its current position (not owned, not closed). The size is known for a
@@ -69,21 +73,49 @@ class FileLogSource final : public LogByteSource {
   bool failed_ = false;
 };
 
+// A regular file mapped into memory (mmap) as a whole, read in place: a replay at the speed of
+// the disk's cache. failed() after opening when the file could not be mapped (then nothing is
+// read: use FileLogSource).
+class MappedFileLogSource final : public LogByteSource {
+ public:
+  explicit MappedFileLogSource(const std::string& path);
+  ~MappedFileLogSource() override;
+  MappedFileLogSource(const MappedFileLogSource&) = delete;
+  MappedFileLogSource& operator=(const MappedFileLogSource&) = delete;
+  size_t read(uint8_t* out, size_t capacity) override;
+  int64_t size() const override { return static_cast<int64_t>(size_); }
+  bool failed() const override { return data_ == nullptr; }
+  std::span<const uint8_t> whole() const override { return {data_, size_}; }
+
+ private:
+  const uint8_t* data_ = nullptr;
+  size_t size_ = 0;
+  size_t pos_ = 0;
+};
+
 // Reads bytes in memory (not copied: they must outlive the source). max_read limits each read and
-// size_known = false hides the size, to exercise what a pipe does.
+// size_known = false hides the size, to exercise what a pipe does; in_place offers them as
+// whole(), as a mapped file does.
 class MemoryLogSource final : public LogByteSource {
  public:
   explicit MemoryLogSource(std::span<const uint8_t> bytes, size_t max_read = SIZE_MAX,
-                           bool size_known = true)
-      : bytes_(bytes), max_read_(max_read == 0 ? 1 : max_read), size_known_(size_known) {}
+                           bool size_known = true, bool in_place = false)
+      : bytes_(bytes),
+        max_read_(max_read == 0 ? 1 : max_read),
+        size_known_(size_known),
+        in_place_(in_place) {}
   size_t read(uint8_t* out, size_t capacity) override;
   int64_t size() const override { return size_known_ ? static_cast<int64_t>(bytes_.size()) : -1; }
+  std::span<const uint8_t> whole() const override {
+    return in_place_ ? bytes_ : std::span<const uint8_t>{};
+  }
 
  private:
   std::span<const uint8_t> bytes_;
   size_t pos_ = 0;
   size_t max_read_;
   bool size_known_;
+  bool in_place_;
 };
 
 // One event. channel and data belong to the reader and are valid until its next call to next().
@@ -145,7 +177,8 @@ class LogReader {
   LogByteSource& source_;
   size_t chunk_;
   std::vector<uint8_t> buf_;
-  size_t begin_ = 0, end_ = 0;  // unconsumed bytes in buf_
+  const uint8_t* base_ = nullptr;  // buf_'s bytes, or the source's whole() read in place
+  size_t begin_ = 0, end_ = 0;     // unconsumed bytes at base_
   bool eof_ = false, done_ = false;
   int64_t last_garbage_end_ = -1;
   LogReadStats stats_;

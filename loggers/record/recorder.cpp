@@ -15,6 +15,7 @@
 #include <utility>
 #include <ips/site_t.hpp>
 
+#include "core/log_writer.hpp"
 #include "core/node.hpp"
 #include "core/text_escape.hpp"
 
@@ -190,17 +191,7 @@ class PartFile {
 
   void add(std::string_view channel, int64_t eventnum, int64_t utime, const void* data,
            size_t size, bool head) {
-    const auto put = [&](uint64_t v, int bytes) {
-      for (int i = bytes - 1; i >= 0; --i) buf_.push_back(static_cast<uint8_t>(v >> (8 * i)));
-    };
-    put(0xEDA1DA01u, 4);
-    put(static_cast<uint64_t>(eventnum), 8);
-    put(static_cast<uint64_t>(utime), 8);
-    put(channel.size(), 4);
-    put(size, 4);
-    buf_.insert(buf_.end(), channel.begin(), channel.end());
-    const auto* p = static_cast<const uint8_t*>(data);
-    if (size > 0) buf_.insert(buf_.end(), p, p + size);
+    append_log_event(buf_, channel, eventnum, utime, data, size);
     pending_.push_back({buf_.size(), std::string(channel), utime, size, head});
   }
 

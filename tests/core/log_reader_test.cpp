@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -49,10 +50,26 @@ ReadResult read_all(LogByteSource& source, size_t chunk = size_t{1} << 20) {
   return r;
 }
 
+bool same_counts(const LogReadStats& a, const LogReadStats& b) {
+  return a.events == b.events && a.event_bytes == b.event_bytes &&
+         a.garbage_bytes == b.garbage_bytes && a.resyncs == b.resyncs &&
+         a.truncated_tail_bytes == b.truncated_tail_bytes && a.read_up_to == b.read_up_to &&
+         a.empty_channel_events == b.empty_channel_events;
+}
+
+// Read through copies into the reader's buffer, and (a source of known size) in place as a
+// mapped file is: both must give the same events and counts.
 ReadResult read_memory(const std::vector<uint8_t>& bytes, size_t chunk = size_t{1} << 20,
                        size_t max_read = SIZE_MAX, bool size_known = true) {
   MemoryLogSource source(bytes, max_read, size_known);
-  return read_all(source, chunk);
+  ReadResult r = read_all(source, chunk);
+  if (size_known && !bytes.empty()) {
+    MemoryLogSource whole(bytes, SIZE_MAX, true, true);
+    const ReadResult in_place = read_all(whole, chunk);
+    EXPECT_EQ(in_place.events, r.events) << "read in place";
+    EXPECT_TRUE(same_counts(in_place.stats, r.stats)) << "read in place";
+  }
+  return r;
 }
 
 // One event in the LCM log format, built by hand (big-endian fields).
@@ -200,6 +217,41 @@ TEST(LogReader, SpanFromHeadAndTailIsThatOfAWholePass) {
   ASSERT_NE(f, nullptr);
   EXPECT_FALSE(read_log_span(f));
   std::fclose(f);
+}
+
+TEST(LogReader, AMappedFileIsReadInPlaceAsStdioReadsIt) {
+  TempLog log;
+  const auto want = write_with_lcm(log.path(), written_events());
+  MappedFileLogSource mapped(log.path());
+  ASSERT_FALSE(mapped.failed());
+  ASSERT_EQ(mapped.whole().size(), log.bytes().size());
+  const auto r = read_all(mapped);
+  EXPECT_EQ(r.events, want);
+  EXPECT_EQ(r.stats.garbage_bytes, 0);
+  // Through LogInput, mapped or not: the same events, and their bytes stay valid while mapped.
+  for (const bool map : {false, true}) {
+    auto in = LogInput::open("test", log.path(), map);
+    ASSERT_NE(in, nullptr);
+    std::vector<const uint8_t*> kept;
+    size_t i = 0;
+    while (const LogEvent* e = in->next()) {
+      ASSERT_LT(i, want.size());
+      EXPECT_EQ(e->channel, want[i].channel);
+      EXPECT_EQ(std::vector<uint8_t>(e->data, e->data + e->size), want[i].data);
+      if (map) kept.push_back(e->data);
+      ++i;
+    }
+    EXPECT_EQ(i, want.size());
+    for (size_t k = 0; k < kept.size(); ++k)
+      EXPECT_EQ(std::memcmp(kept[k], want[k].data.data(), want[k].data.size()), 0) << k;
+  }
+  // An empty file cannot be mapped: failed(), and LogInput reads it through stdio instead.
+  TempLog empty;
+  MappedFileLogSource none(empty.path());
+  EXPECT_TRUE(none.failed());
+  auto in = LogInput::open("test", empty.path(), true);
+  ASSERT_NE(in, nullptr);
+  EXPECT_EQ(in->next(), nullptr);
 }
 
 // Expected events: `want` without those numbered in `lost`, shifted by `inserted` bytes from

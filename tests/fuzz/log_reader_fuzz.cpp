@@ -2,7 +2,8 @@
 // byte is counted once (events + garbage + cut tail == input size), that every event returned is
 // really in the input where it says (magic word, a channel of 1 to 63 bytes, its data), in order
 // and without overlap, and that reading in small pieces from a source of unknown size (a pipe)
-// gives exactly what reading the whole input at once does.
+// gives exactly what reading the whole input at once does, and so does reading it in place (a
+// mapped file).
 #include <cstddef>
 #include <cstdint>
 #include <cstring>
@@ -27,8 +28,8 @@ void check(bool ok, const char* what) {
 }
 
 std::vector<Seen> read_checked(std::span<const uint8_t> input, size_t chunk, size_t max_read,
-                               bool size_known, ips::LogReadStats& stats) {
-  ips::MemoryLogSource source(input, max_read, size_known);
+                               bool size_known, ips::LogReadStats& stats, bool in_place = false) {
+  ips::MemoryLogSource source(input, max_read, size_known, in_place);
   ips::LogReader reader(source, chunk);
   std::vector<Seen> seen;
   int64_t next_free = 0, event_bytes = 0;
@@ -67,12 +68,16 @@ std::vector<Seen> read_checked(std::span<const uint8_t> input, size_t chunk, siz
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const std::span<const uint8_t> input(data, size);
-  ips::LogReadStats whole{}, pieces{};
+  ips::LogReadStats whole{}, pieces{}, in_place{};
   const auto a = read_checked(input, size_t{1} << 20, SIZE_MAX, true, whole);
   const auto b = read_checked(input, 1 + size % 61, 1 + size % 7, false, pieces);
-  check(a == b, "events depend on how the input is read");
-  check(whole.garbage_bytes == pieces.garbage_bytes && whole.resyncs == pieces.resyncs &&
-            whole.truncated_tail_bytes == pieces.truncated_tail_bytes,
-        "counts depend on how the input is read");
+  const auto c =
+      size > 0 ? read_checked(input, size_t{1} << 20, SIZE_MAX, true, in_place, true) : a;
+  if (size == 0) in_place = whole;
+  check(a == b && a == c, "events depend on how the input is read");
+  for (const ips::LogReadStats* s : {&pieces, &in_place})
+    check(whole.garbage_bytes == s->garbage_bytes && whole.resyncs == s->resyncs &&
+              whole.truncated_tail_bytes == s->truncated_tail_bytes,
+          "counts depend on how the input is read");
   return 0;
 }
