@@ -11,7 +11,7 @@ SiteYamlEdit::SiteYamlEdit(const Site& site) {
   if (!root_.IsMap()) throw ConfigError("the input site's YAML is not a map");
 }
 
-YAML::Node SiteYamlEdit::map_at(std::initializer_list<std::string> keys) {
+YAML::Node SiteYamlEdit::map_at(const std::vector<std::string>& keys) {
   YAML::Node node = root_;
   std::string path;
   for (const auto& key : keys) {

@@ -3,34 +3,44 @@
 // byte-identical output.
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <chrono>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
-#include <lcm/lcm-cpp.hpp>
+#include <atomic>
 #include <memory>
 #include <sstream>
 #include <spdlog/spdlog.h>
+#include <thread>
 
 #include "core/channels.hpp"
 #include "core/cli.hpp"
 #include "core/log_input.hpp"
 #include "core/log_reader.hpp"
+#include "core/log_writer.hpp"
 #include "core/text_escape.hpp"
 #include "loggers/replay/replay_host.hpp"
+#include "loggers/replay/sweep.hpp"
 
 int main(int argc, char** argv) {
   CLI::App app{"ips-replay: runs a log through every estimator in one process, as fast as the CPU "
                "allows, and writes the inputs plus the new estimates (POSE_UWB, ...) to OUT. "
-               "Input channels that the hosted estimators produce are regenerated, not copied.",
+               "Input channels that the hosted estimators produce are regenerated, not copied. "
+               "With --set, a parameter sweep: every combination of the values replayed (on "
+               "every core) and scored against TRUTH, one row per configuration.\n\n"
+               "Examples:\n  ips-replay lab.lcm --out lab-replayed.lcm\n"
+               "  ips-replay lab.lcm --set estimators.fuse.range_sigma_m=0.05,0.1,0.2 "
+               "--set estimators.fuse.accel_psd=0.5,1\n",
                "ips-replay"};
   ips::CommonOptions opts;
   ips::add_common_options(app, opts, {.lcm = false, .site = true, .channels = true});
-  std::string in_path, out_path, only;
+  std::string out_path, only;
+  std::vector<std::string> in_paths;
   bool keep = false;
-  app.add_option("IN", in_path, "input LCM log")->required();
-  app.add_option("--out", out_path, "output LCM log (overwritten)")->required();
+  app.add_option("IN", in_paths, "input LCM log (with --set: one or more)")->required();
+  app.add_option("--out", out_path, "output LCM log (overwritten); required unless --set");
   app.add_option("--only", only, "comma-separated estimators to host (default: all; available: " +
                                       [] {
                                         std::string s;
@@ -45,6 +55,28 @@ int main(int argc, char** argv) {
                  "POSE_UWB, ...)")
       ->capture_default_str();
   app.add_flag("--keep", keep, "also copy input events on channels the estimators regenerate");
+  const int cores = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  int jobs = 0;
+  app.add_option("--jobs", jobs,
+                 "threads. A replay: 1 runs everything on one; 2 runs ips-fuse, ips-zones and the "
+                 "output on a second (the same bytes out; more gain nothing yet). A sweep: "
+                 "configurations replayed side by side. Default: the cores (" +
+                     std::to_string(cores) + " here; at most 2 for a replay)")
+      ->check(CLI::Range(1, 1024));
+  std::vector<std::string> sets;
+  app.add_option("--set", sets,
+                 "KEY=V1,V2,...: a site setting and the values to try (a sweep); repeatable: "
+                 "every combination runs")
+      ->type_name("KEY=V1,V2");
+  std::string sort_metric = "rmse";
+  app.add_option("--sort", sort_metric, "a sweep's metric, smallest first")
+      ->check(CLI::IsMember(ips::replay::sweep_metrics()))
+      ->capture_default_str();
+  std::string score_channel = "POSE_FUSED";
+  app.add_option("--score-channel", score_channel, "the channel a sweep scores against TRUTH")
+      ->capture_default_str();
+  bool json = false;
+  app.add_flag("--json", json, "a sweep's table as JSON on stdout");
   int rc = 0;
   if (!ips::parse_command_line(app, opts, argc, argv, rc)) return rc;
   if (!ips::channel::valid_channel_name(zones_pose_channel)) {
@@ -54,33 +86,71 @@ int main(int argc, char** argv) {
     return 2;
   }
 
+  if (sets.empty() && (in_paths.size() != 1 || out_path.empty())) {
+    ips::print_fatal("ips-replay", in_paths.size() != 1
+                                       ? "one IN log to replay (several only with --set)"
+                                       : "--out is required (unless --set: a sweep)");
+    return 2;
+  }
+  if (!sets.empty() && !out_path.empty()) {
+    ips::print_fatal("ips-replay", "--out does not apply to a sweep (--set)");
+    return 2;
+  }
+
   return ips::run_reporting_errors("ips-replay", [&]() -> int {
     ips::replay::ReplayOptions ro;
     ro.keep_regenerated = keep;
     ro.site_path = opts.site_path;
     ro.zones_pose_channel = zones_pose_channel;
+    ro.threads = jobs > 0 ? jobs : std::min(cores, 2);
     std::stringstream names(only);
     for (std::string n; std::getline(names, n, ',');)
       if (!n.empty()) ro.only.insert(n);
+    if (!sets.empty()) {
+      ips::replay::SweepOptions so;
+      so.logs = in_paths;
+      for (const auto& s : sets) so.settings.push_back(ips::replay::parse_sweep_setting(s));
+      so.site_path = opts.site_path;
+      so.channel = opts.channel(score_channel);
+      so.metric = sort_metric;
+      so.jobs = jobs > 0 ? jobs : cores;
+      so.replay = ro;
+      so.channels = opts;
+      ips::ProgressLine progress("ips-replay");
+      so.progress = [&](size_t done, size_t total) {
+        if (progress.enabled())
+          progress.update(static_cast<double>(done) / static_cast<double>(total),
+                          static_cast<int64_t>(done));
+      };
+      const auto t0 = std::chrono::steady_clock::now();
+      const auto rows = ips::replay::run_sweep(so);
+      progress.finish();
+      const double secs =
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      const std::string out =
+          json ? ips::replay::sweep_json(so, rows) : ips::replay::sweep_table(so, rows);
+      std::fputs(out.c_str(), stdout);
+      size_t failed = 0;
+      for (const auto& r : rows) failed += r.error.empty() ? 0 : 1;
+      const size_t runs = rows.size() * so.logs.size();
+      spdlog::info("ips-replay: {} configurations x {} logs in {:.1f} s on {} threads; {} failed",
+                   rows.size(), so.logs.size(), secs, std::min<size_t>(so.jobs, runs), failed);
+      return failed == rows.size() ? 1 : 0;
+    }
+    const std::string& in_path = in_paths.front();
 
-    const auto in = ips::LogInput::open("ips-replay", in_path);
+    // Mapped: read in place, and the events' bytes handed on uncopied.
+    const auto in = ips::LogInput::open("ips-replay", in_path, true);
     if (!in) return 2;
-    lcm::LogFile out(out_path, "w");
-    if (!out.good()) {
-      ips::print_fatal("ips-replay", "cannot write log '" + out_path + "'");
+    ips::LogWriter out(out_path);
+    if (!out.ok()) {
+      ips::print_fatal("ips-replay", out.error());
       return 2;
     }
-    int64_t written = 0;
-    bool write_failed = false;
+    std::atomic<bool> write_failed{false};
     ips::replay::ReplayHost host(ro, opts, [&](const std::string& channel, int64_t timestamp,
                                                const uint8_t* data, size_t size) {
-      lcm::LogEvent le;
-      le.eventnum = written++;
-      le.timestamp = timestamp;
-      le.channel = channel;
-      le.datalen = static_cast<int32_t>(size);
-      le.data = const_cast<uint8_t*>(data);
-      if (out.writeEvent(&le) != 0) write_failed = true;
+      if (!out.add(channel, timestamp, data, size)) write_failed = true;
     });
 
     const auto t0 = std::chrono::steady_clock::now();
@@ -88,18 +158,15 @@ int main(int argc, char** argv) {
     while (const ips::LogEvent* e = in->next()) {
       if (host.stats().events_in == 0) first_ts = e->timestamp_us;
       last_ts = e->timestamp_us;
-      host.process(e->channel, e->timestamp_us, e->data, e->size);
-      if (write_failed) {
-        ips::print_fatal("ips-replay", "write to '" + out_path + "' failed (disk full?)");
-        return 1;
-      }
+      host.process(e->channel, e->timestamp_us, e->data, e->size, true);
+      if (write_failed) break;
     }
     host.finish();
-    if (!in->finish("replayed what was read")) return 2;
-    if (std::fflush(out.getFilePtr()) != 0 || std::ferror(out.getFilePtr())) {
-      ips::print_fatal("ips-replay", "write to '" + out_path + "' failed (disk full?)");
+    if (write_failed || !out.close()) {
+      ips::print_fatal("ips-replay", out.error() + " (disk full?)");
       return 1;
     }
+    if (!in->finish("replayed what was read")) return 2;
     const auto& s = host.stats();
     const double secs =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -108,10 +175,10 @@ int main(int argc, char** argv) {
     for (const auto& n : host.hosted()) hosted += (hosted.empty() ? "" : ", ") + n;
     spdlog::info("ips-replay: {} events in ({} passed through, {} regenerated channel events "
                  "dropped), {} estimates out [{}]; {} undecodable, {} bad sites; {:.2f} s "
-                 "({:.0f} events/s, {:.0f}x real time)",
+                 "({:.0f} events/s, {:.0f}x real time; {} thread{})",
                  s.events_in, s.passed_through, s.dropped_regenerated, s.estimates_out, hosted,
                  s.undecodable, s.bad_sites, secs, static_cast<double>(s.events_in) / secs,
-                 secs > 0 ? span / secs : 0.0);
+                 secs > 0 ? span / secs : 0.0, ro.threads >= 2 ? 2 : 1, ro.threads >= 2 ? "s" : "");
     // Per estimator: in, out, and why inputs gave nothing; an estimator that had input and gave
     // nothing for a fault is a warning. A replay that estimated nothing at all fails (status 1)
     // with one error line that carries the reasons.

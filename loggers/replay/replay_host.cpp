@@ -12,6 +12,7 @@
 #include <ips/uwb_rx_t.hpp>
 #include <ips/uwb_tdoa_t.hpp>
 #include <type_traits>
+#include <utility>
 
 #include "core/channels.hpp"
 #include "core/node.hpp"
@@ -19,6 +20,9 @@
 namespace ips::replay {
 
 namespace {
+// Steps per batch handed to the second thread, and batches queued at most.
+constexpr size_t kBatchSteps = 4096;
+constexpr size_t kMaxQueuedBatches = 8;
 constexpr const char* kUwbTwr = "uwb_twr";
 constexpr const char* kUwbTdoa = "uwb_tdoa";
 constexpr const char* kAoa = "aoa";
@@ -140,7 +144,182 @@ ReplayHost::ReplayHost(const ReplayOptions& opts, const CommonOptions& channels,
     produced_channels_.insert(events);
     produced_channels_.insert(alerts);
   }
-  if (!opts_.site_path.empty()) apply_site(load_site_file(opts_.site_path));
+  for (const char* kind : {channel::kInsModule, channel::kPoseIns, channel::kPoseTdoa,
+                           channel::kPoseAoa, channel::kStep, channel::kAltitude})
+    fuse_log_channels_.insert(channels_.channel(kind));
+  if (opts_.site) {
+    apply_site(*opts_.site);
+  } else if (!opts_.site_path.empty()) {
+    apply_site(load_site_file(opts_.site_path));
+  }
+  if (opts_.threads >= 2 && (fuse_ || zones_)) {
+    threaded_ = true;
+    thread_ = std::thread(&ReplayHost::worker, this);
+  }
+}
+
+ReplayHost::~ReplayHost() {
+  if (!thread_.joinable()) return;
+  {
+    std::lock_guard<std::mutex> l(mutex_);
+    stop_ = true;
+    queue_.clear();
+  }
+  cv_.notify_all();
+  thread_.join();
+}
+
+uint32_t ReplayHost::intern(const std::string& channel) {
+  const auto it = channel_index_.find(channel);
+  if (it != channel_index_.end()) return it->second;
+  const auto index = static_cast<uint32_t>(channel_names_.size());
+  channel_names_.push_back(channel);
+  channel_index_.emplace(channel, index);
+  return index;
+}
+
+void ReplayHost::post(Op op, const std::string& channel, const uint8_t* data, size_t size,
+                      bool stable) {
+  const uint32_t ch = intern(channel);
+  if (!threaded_) {
+    run(Step{op, ch, now_timestamp_, data, 0, size}, data);
+    return;
+  }
+  Step s{op, ch, now_timestamp_, stable ? data : nullptr, batch_.bytes.size(), size};
+  if (!stable && size > 0) batch_.bytes.insert(batch_.bytes.end(), data, data + size);
+  batch_.steps.push_back(s);
+  if (batch_.steps.size() >= kBatchSteps) submit();
+}
+
+void ReplayHost::submit() {
+  rethrow_worker_error();
+  {
+    std::unique_lock<std::mutex> l(mutex_);
+    cv_.wait(l, [this] { return queue_.size() < kMaxQueuedBatches || worker_failed_; });
+    queue_.push_back(std::move(batch_));
+    if (!spare_.empty()) {
+      batch_ = std::move(spare_.back());
+      spare_.pop_back();
+    } else {
+      batch_ = Batch{};
+    }
+  }
+  batch_.steps.clear();
+  batch_.bytes.clear();
+  cv_.notify_all();
+  rethrow_worker_error();
+}
+
+void ReplayHost::worker() {
+  for (;;) {
+    Batch b;
+    {
+      std::unique_lock<std::mutex> l(mutex_);
+      cv_.wait(l, [this] { return stop_ || !queue_.empty(); });
+      if (queue_.empty()) return;
+      b = std::move(queue_.front());
+      queue_.pop_front();
+      busy_ = true;
+    }
+    if (!worker_failed_) {
+      try {
+        run_batch(b);
+      } catch (...) {
+        worker_error_ = std::current_exception();
+        worker_failed_ = true;
+      }
+    }
+    {
+      std::lock_guard<std::mutex> l(mutex_);
+      busy_ = false;
+      spare_.push_back(std::move(b));
+    }
+    cv_.notify_all();
+  }
+}
+
+void ReplayHost::rethrow_worker_error() {
+  if (!worker_failed_) return;
+  std::lock_guard<std::mutex> l(mutex_);
+  if (worker_error_) std::rethrow_exception(std::exchange(worker_error_, nullptr));
+}
+
+void ReplayHost::run_batch(const Batch& b) {
+  for (const Step& s : b.steps) run(s, s.data ? s.data : b.bytes.data() + s.offset);
+}
+
+void ReplayHost::run(const Step& s, const uint8_t* data) {
+  stage_timestamp_ = s.timestamp;
+  const std::string& channel = channel_names_[s.channel];
+  // Decodes a message this process encoded or already decoded once: it cannot fail.
+  const auto decoded = [&](auto msg) {
+    decode_message(msg, data, s.size);
+    return msg;
+  };
+  const auto to_fuse = [&](auto msg, auto&& use) {
+    ++counts_[kFuseIndex].in;
+    use(decoded(std::move(msg)));
+  };
+  switch (s.op) {
+    case Op::kWrite:
+      sink_(channel, s.timestamp, data, s.size);
+      break;
+    case Op::kEstimate:
+      ++stats_.estimates_out;
+      sink_(channel, s.timestamp, data, s.size);
+      break;
+    case Op::kEmitPose: {
+      const pose_t m = decoded(pose_t{});
+      ++stats_.estimates_out;
+      sink_(channel, s.timestamp, data, s.size);
+      zones_hear(channel, m);
+      if (fuse_) feed_fuse(channel, m);
+      break;
+    }
+    case Op::kEmitStep: {
+      const step_t m = decoded(step_t{});
+      ++stats_.estimates_out;
+      sink_(channel, s.timestamp, data, s.size);
+      if (fuse_) feed_fuse(channel, m);
+      break;
+    }
+    case Op::kEmitAltitude: {
+      const altitude_t m = decoded(altitude_t{});
+      ++stats_.estimates_out;
+      sink_(channel, s.timestamp, data, s.size);
+      zones_hear(channel, m);
+      if (fuse_) feed_fuse(channel, m);
+      break;
+    }
+    case Op::kFuseRange:
+      to_fuse(uwb_range_t{}, [this](const uwb_range_t& m) { fuse_->on_range(m); });
+      break;
+    case Op::kFuseRx:
+      to_fuse(uwb_rx_t{}, [this](const uwb_rx_t& m) { fuse_->on_rx(m); });
+      break;
+    case Op::kFusePair:
+      to_fuse(uwb_tdoa_t{}, [this](const uwb_tdoa_t& m) { fuse_->on_pair(m); });
+      break;
+    case Op::kFuseAoa:
+      to_fuse(ble_aoa_t{}, [this](const ble_aoa_t& m) { fuse_->on_aoa(m); });
+      break;
+    case Op::kFuseImu:
+      to_fuse(imu_t{}, [this](const imu_t& m) { fuse_->on_imu(m); });
+      break;
+    case Op::kFuseFromLog:
+      feed_fuse_from_log(channel, data, s.size);
+      break;
+    case Op::kZonesFromLog:
+      feed_zones_from_log(channel, data, s.size);
+      break;
+    case Op::kSite:
+      if (fuse_) fuse_->set_site(*sites_[s.offset]);
+      if (zones_) zones_->set_site(*sites_[s.offset]);
+      break;
+    case Op::kFinish:
+      if (fuse_) fuse_->flush();
+      break;
+  }
 }
 
 std::vector<std::string> ReplayHost::hosted() const {
@@ -156,14 +335,20 @@ std::vector<std::string> ReplayHost::hosted() const {
   return names;
 }
 
+// The second stage's own estimates (ips-fuse's, ips-zones'): to the sink, and to ips-zones.
 template <class Msg>
 void ReplayHost::write(const std::string& channel, const Msg& msg) {
-  buffer_.resize(static_cast<size_t>(msg.getEncodedSize()));
-  msg.encode(buffer_.data(), 0, static_cast<int>(buffer_.size()));
+  stage_buffer_.resize(static_cast<size_t>(msg.getEncodedSize()));
+  msg.encode(stage_buffer_.data(), 0, static_cast<int>(stage_buffer_.size()));
   ++stats_.estimates_out;
-  sink_(channel, now_timestamp_, buffer_.data(), buffer_.size());
-  // ips-zones hears the estimates as they are written (POSE_FUSED too: fuse's poses are written,
-  // not emitted).
+  sink_(channel, stage_timestamp_, stage_buffer_.data(), stage_buffer_.size());
+  zones_hear(channel, msg);
+}
+
+// ips-zones hears the estimates as they are written (POSE_FUSED too: fuse's poses are written,
+// not emitted).
+template <class Msg>
+void ReplayHost::zones_hear(const std::string& channel, const Msg& msg) {
   if constexpr (std::is_same_v<Msg, pose_t>) {
     if (zones_ && channel == opts_.zones_pose_channel) {
       ++counts_[kZonesIndex].in;
@@ -177,10 +362,17 @@ void ReplayHost::write(const std::string& channel, const Msg& msg) {
   }
 }
 
+// A first-stage estimator's estimate: encoded here, written and handed to the fusion by the
+// second stage.
 template <class Msg>
 void ReplayHost::emit(const std::string& channel, const Msg& msg) {
-  write(channel, msg);
-  if (fuse_) feed_fuse(channel, msg);
+  buffer_.resize(static_cast<size_t>(msg.getEncodedSize()));
+  msg.encode(buffer_.data(), 0, static_cast<int>(buffer_.size()));
+  Op op = Op::kEstimate;
+  if constexpr (std::is_same_v<Msg, pose_t>) op = Op::kEmitPose;
+  if constexpr (std::is_same_v<Msg, step_t>) op = Op::kEmitStep;
+  if constexpr (std::is_same_v<Msg, altitude_t>) op = Op::kEmitAltitude;
+  post(op, channel, buffer_.data(), buffer_.size(), false);
 }
 
 void ReplayHost::feed_fuse(const std::string& channel, const pose_t& m) {
@@ -218,7 +410,7 @@ void ReplayHost::feed_fuse_from_log(const std::string& channel, const uint8_t* d
       channel == channels_.channel(channel::kPoseAoa)) {
     pose_t m;
     if (!decode_message(m, data, size)) {
-      ++stats_.undecodable;
+      ++stage_undecodable_;
       return;
     }
     if (ins_module) {
@@ -230,7 +422,7 @@ void ReplayHost::feed_fuse_from_log(const std::string& channel, const uint8_t* d
   } else if (channel == channels_.channel(channel::kStep)) {
     step_t m;
     if (!decode_message(m, data, size)) {
-      ++stats_.undecodable;
+      ++stage_undecodable_;
       return;
     }
     ++counts_[kFuseIndex].in;
@@ -238,7 +430,7 @@ void ReplayHost::feed_fuse_from_log(const std::string& channel, const uint8_t* d
   } else if (channel == channels_.channel(channel::kAltitude)) {
     altitude_t m;
     if (!decode_message(m, data, size)) {
-      ++stats_.undecodable;
+      ++stage_undecodable_;
       return;
     }
     ++counts_[kFuseIndex].in;
@@ -254,8 +446,16 @@ void ReplayHost::apply_site(const Site& site) {
   if (pdr_) pdr_->set_site(site);
   if (ins_) ins_->set_site(site);
   if (altitude_) altitude_->set_site(site);
-  if (fuse_) fuse_->set_site(site);
-  if (zones_) zones_->set_site(site);
+  if (fuse_ || zones_) {
+    sites_.push_back(std::make_unique<Site>(site));
+    const uint32_t ch = intern(channels_.channel(channel::kSite));
+    const Step step{Op::kSite, ch, now_timestamp_, nullptr, sites_.size() - 1, 0};
+    if (!threaded_) {
+      run(step, nullptr);
+    } else {
+      batch_.steps.push_back(step);
+    }
+  }
 }
 
 void ReplayHost::feed_zones_from_log(const std::string& channel, const uint8_t* data,
@@ -264,7 +464,7 @@ void ReplayHost::feed_zones_from_log(const std::string& channel, const uint8_t* 
   if (produced_channels_.count(channel)) return;
   auto feed = [&](auto msg, auto&& use) {
     if (!decode_message(msg, data, size)) {
-      ++stats_.undecodable;
+      ++stage_undecodable_;
       return;
     }
     ++counts_[kZonesIndex].in;
@@ -283,22 +483,42 @@ void ReplayHost::finish() {
   if (tdoa_) tdoa_->flush();
   if (aoa_) aoa_->finish();
   if (altitude_) altitude_->finish();
-  if (fuse_) fuse_->flush();
+  post(Op::kFinish, channels_.channel(channel::kSite), nullptr, 0, false);
+  if (threaded_) {
+    submit();
+    {
+      std::unique_lock<std::mutex> l(mutex_);
+      cv_.wait(l, [this] { return (queue_.empty() && !busy_) || worker_failed_; });
+      stop_ = true;
+      queue_.clear();
+    }
+    cv_.notify_all();
+    thread_.join();
+    threaded_ = false;
+    rethrow_worker_error();
+  }
+  stats_.undecodable += std::exchange(stage_undecodable_, 0);
 }
 
 void ReplayHost::process(const std::string& channel, int64_t timestamp, const uint8_t* data,
-                         size_t size) {
+                         size_t size, bool stable) {
+  if (worker_failed_) rethrow_worker_error();
   ++stats_.events_in;
   now_timestamp_ = timestamp;
+  const bool produced = produced_channels_.count(channel) > 0;
   // Inputs pass through first, so each estimate follows the input that caused it.
-  if (produced_channels_.count(channel) && !opts_.keep_regenerated) {
+  if (produced && !opts_.keep_regenerated) {
     ++stats_.dropped_regenerated;
   } else {
     ++stats_.passed_through;
-    sink_(channel, timestamp, data, size);
+    post(Op::kWrite, channel, data, size, stable);
   }
-  if (zones_) feed_zones_from_log(channel, data, size);
-  if (channel == channels_.channel(channel::kSite) && opts_.site_path.empty()) {
+  // What a hosted estimator regenerates reaches ips-zones as it is written.
+  if (zones_ && !produced &&
+      (channel == opts_.zones_pose_channel || channel == channels_.channel(channel::kAltitude) ||
+       channel == channels_.channel(channel::kHealth)))
+    post(Op::kZonesFromLog, channel, data, size, stable);
+  if (channel == channels_.channel(channel::kSite) && opts_.site_path.empty() && !opts_.site) {
     site_t m;
     if (!decode_message(m, data, size)) {
       ++stats_.undecodable;
@@ -321,10 +541,7 @@ void ReplayHost::process(const std::string& channel, int64_t timestamp, const ui
       ++counts_[kTwrIndex].in;
       twr_->on_range(m);
     }
-    if (fuse_) {
-      ++counts_[kFuseIndex].in;
-      fuse_->on_range(m);
-    }
+    if (fuse_) post(Op::kFuseRange, channel, data, size, stable);
   } else if ((tdoa_ || fuse_) && channel == channels_.channel(channel::kUwbRx)) {
     uwb_rx_t m;
     if (!decode_message(m, data, size)) {
@@ -332,10 +549,7 @@ void ReplayHost::process(const std::string& channel, int64_t timestamp, const ui
       return;
     }
     // ips-fuse hears a blink before the POSE_TDOA made of it, as on the bus.
-    if (fuse_) {
-      ++counts_[kFuseIndex].in;
-      fuse_->on_rx(m);
-    }
+    if (fuse_) post(Op::kFuseRx, channel, data, size, stable);
     if (tdoa_) {
       ++counts_[kTdoaIndex].in;
       tdoa_->on_rx(m);
@@ -346,10 +560,7 @@ void ReplayHost::process(const std::string& channel, int64_t timestamp, const ui
       ++stats_.undecodable;
       return;
     }
-    if (fuse_) {
-      ++counts_[kFuseIndex].in;
-      fuse_->on_pair(m);
-    }
+    if (fuse_) post(Op::kFusePair, channel, data, size, stable);
     if (tdoa_) {
       ++counts_[kTdoaIndex].in;
       tdoa_->on_pair(m);
@@ -360,10 +571,7 @@ void ReplayHost::process(const std::string& channel, int64_t timestamp, const ui
       ++stats_.undecodable;
       return;
     }
-    if (fuse_) {
-      ++counts_[kFuseIndex].in;
-      fuse_->on_aoa(m);
-    }
+    if (fuse_) post(Op::kFuseAoa, channel, data, size, stable);
     if (aoa_) {
       ++counts_[kAoaIndex].in;
       aoa_->on_event(m);
@@ -374,10 +582,7 @@ void ReplayHost::process(const std::string& channel, int64_t timestamp, const ui
       ++stats_.undecodable;
       return;
     }
-    if (fuse_) {
-      ++counts_[kFuseIndex].in;
-      fuse_->on_imu(m);
-    }
+    if (fuse_) post(Op::kFuseImu, channel, data, size, stable);
     if (pdr_) {
       ++counts_[kPdrIndex].in;
       pdr_->on_imu(m);
@@ -394,8 +599,8 @@ void ReplayHost::process(const std::string& channel, int64_t timestamp, const ui
     }
     ++counts_[kAltitudeIndex].in;
     altitude_->on_baro(m);
-  } else if (fuse_) {
-    feed_fuse_from_log(channel, data, size);
+  } else if (fuse_ && !produced && fuse_log_channels_.count(channel)) {
+    post(Op::kFuseFromLog, channel, data, size, stable);
   }
 }
 

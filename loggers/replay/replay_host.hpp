@@ -3,12 +3,25 @@
 // order, it passes the inputs through and adds every hosted estimator's output, stamped with the
 // log time of the input that caused it. Pure: no file, clock or socket; the same events in give
 // the same bytes out.
+//
+// With ReplayOptions::threads 2 it runs in two stages on two threads: the caller's thread
+// decodes and runs the estimators that feed the fusion (uwb_twr ... altitude); the second runs
+// ips-fuse and ips-zones and makes every call of the sink, in the order one thread makes them. The
+// output is the same bytes either way: the second stage takes the first's work as a tape of
+// operations (writes, and what to hand the fusion) and plays it in order.
 #include <array>
+#include <atomic>
+#include <condition_variable>
 #include <cstdint>
+#include <deque>
+#include <exception>
 #include <functional>
 #include <memory>
+#include <mutex>
 #include <set>
 #include <string>
+#include <thread>
+#include <unordered_map>
 #include <vector>
 
 #include "core/cli.hpp"
@@ -26,12 +39,16 @@
 namespace ips::replay {
 
 struct ReplayOptions {
-  std::set<std::string> only;      // estimator names to host; empty: all
-  bool keep_regenerated = false;   // keep input events on channels the hosted estimators produce
-  std::string site_path;           // use this site file instead of the log's SITE messages
+  std::set<std::string> only;        // estimator names to host; empty: all
+  bool keep_regenerated = false;     // keep input events on channels the hosted estimators produce
+  std::string site_path;             // use this site file instead of the log's SITE messages
+  std::shared_ptr<const Site> site;  // or this site (before site_path), e.g. a sweep's
   // The poses ips-zones watches (its --pose-channel): from the hosted estimator that produces
   // them, else from the log (TRUTH, or POSE_FUSED with `fuse` not hosted).
   std::string zones_pose_channel = "POSE_FUSED";
+  // 1: everything on the caller's thread; 2: ips-fuse, ips-zones and the sink on a second thread
+  // (the same output). More is taken as 2.
+  int threads = 1;
 };
 
 struct ReplayStats {
@@ -79,12 +96,20 @@ class ReplayHost {
   // Throws ConfigError for an unknown estimator in opts.only or a bad opts.site_path.
   ReplayHost(const ReplayOptions& opts, const CommonOptions& channels, Sink sink);
 
-  // One log event (channel, log timestamp, payload).
-  void process(const std::string& channel, int64_t timestamp, const uint8_t* data, size_t size);
+  ~ReplayHost();
+  ReplayHost(const ReplayHost&) = delete;
+  ReplayHost& operator=(const ReplayHost&) = delete;
+
+  // One log event (channel, log timestamp, payload). stable: the payload stays valid until
+  // finish() (a mapped log), so the second stage may read it where it is, uncopied. The sink
+  // may be called later, from the second stage's thread, with threads 2; an exception there is
+  // thrown here (or by finish()).
+  void process(const std::string& channel, int64_t timestamp, const uint8_t* data, size_t size,
+               bool stable = false);
   // At the end of the log: estimators that hold inputs back (the TDoA estimator waits for a
   // blink's last report, the AoA estimator for an epoch's window to pass, the altitude estimator
   // for the reference's next reading) emit what they hold, stamped with the last event's time;
-  // the fusion gets it as it would live.
+  // the fusion gets it as it would live. Returns when the sink has had everything.
   void finish();
 
   const ReplayStats& stats() const { return stats_; }
@@ -117,6 +142,66 @@ class ReplayHost {
   // A log event for the hosted ips-zones: its poses, ALTITUDE, HEALTH.
   void feed_zones_from_log(const std::string& channel, const uint8_t* data, size_t size);
 
+  // ---- The second stage: ips-fuse, ips-zones and every sink call, as a tape of operations ----
+  enum class Op : uint8_t {
+    kWrite,         // bytes to the sink (an input passed through)
+    kEstimate,      // an estimate that only goes to the sink (CLOCK)
+    kEmitPose,      // an estimate of a hosted estimator: written, then to the fusion (feed_fuse)
+    kEmitStep,
+    kEmitAltitude,
+    kFuseRange,     // a log event for the fusion: UWB_RANGE
+    kFuseRx,        // UWB_RX
+    kFusePair,      // UWB_TDOA
+    kFuseAoa,       // BLE_AOA
+    kFuseImu,       // IMU
+    kFuseFromLog,   // any other of its inputs (feed_fuse_from_log)
+    kZonesFromLog,  // feed_zones_from_log
+    kSite,          // apply the site (sites_[index]) to ips-fuse and ips-zones
+    kFinish,        // ips-fuse's flush at the end
+  };
+  struct Step {
+    Op op;
+    uint32_t channel;     // index into channel_names_
+    int64_t timestamp;    // the log time of the input that caused it
+    const uint8_t* data;  // stable bytes, or null: then at `offset` in the batch's bytes
+    size_t offset, size;
+  };
+  struct Batch {
+    std::vector<Step> steps;
+    std::vector<uint8_t> bytes;
+  };
+  uint32_t intern(const std::string& channel);
+  // Hands a step to the second stage: run now (one thread), or taped (two).
+  void post(Op op, const std::string& channel, const uint8_t* data, size_t size, bool stable);
+  void run(const Step& s, const uint8_t* data);
+  void run_batch(const Batch& b);
+  void submit();  // the current batch to the second thread
+  void worker();
+  void rethrow_worker_error();
+  // Emits an estimate of a first-stage estimator (encoded, then posted as `op`).
+  template <class Msg>
+  void emit_encoded(Op op, const std::string& channel, const Msg& msg);
+  template <class Msg>
+  void zones_hear(const std::string& channel, const Msg& msg);
+
+  std::vector<uint8_t> stage_buffer_;  // the second stage's encoding buffer
+  std::vector<std::string> channel_names_;
+  std::unordered_map<std::string, uint32_t> channel_index_;
+  std::vector<std::unique_ptr<Site>> sites_;
+  int64_t stage_timestamp_ = 0;    // the second stage's now: the step it runs
+  int64_t stage_undecodable_ = 0;  // decoding failures in the second stage
+  bool threaded_ = false;
+  Batch batch_;
+  std::thread thread_;
+  std::mutex mutex_;
+  std::condition_variable cv_;
+  std::deque<Batch> queue_;   // submitted, not yet run
+  std::vector<Batch> spare_;  // run, to fill again
+  bool stop_ = false;
+  bool busy_ = false;  // the worker runs a batch
+  std::exception_ptr worker_error_;
+  std::atomic<bool> worker_failed_{false};
+
   // Messages in and estimates out per estimator, in the order of available().
   enum Hosted { kTwrIndex, kTdoaIndex, kAoaIndex, kPdrIndex, kInsIndex, kAltitudeIndex, kFuseIndex,
                 kZonesIndex, kNumHosted };
@@ -131,6 +216,7 @@ class ReplayHost {
   ReplayOptions opts_;
   ReplayStats stats_;
   std::set<std::string> produced_channels_;
+  std::set<std::string> fuse_log_channels_;  // the fusion's inputs feed_fuse_from_log takes
   int64_t now_timestamp_ = 0;
   std::vector<uint8_t> buffer_;
   std::string last_site_yaml_;

@@ -16,6 +16,7 @@
 #include <ips/uwb_range_t.hpp>
 #include <ips/zone_event_t.hpp>
 #include <set>
+#include <stdexcept>
 #include <ips/site_t.hpp>
 
 #include "core/site.hpp"
@@ -74,6 +75,51 @@ TEST(ReplayHost, InputsPassThroughAndEstimatesFollowTheirInput) {
     EXPECT_EQ(p.source, "uwb_twr");
   }
   EXPECT_NEAR(poses, 200, 2);  // 10 Hz for 20 s
+}
+
+// --jobs 2: ips-fuse, ips-zones and the sink on a second thread give the same calls of the sink,
+// in the same order, as one thread does; with every estimator, and with the fusion alone.
+TEST(ReplayHost, TwoThreadsGiveTheSameOutputAsOne) {
+  for (const std::set<std::string>& only :
+       {std::set<std::string>{}, std::set<std::string>{"fuse", "zones"}}) {
+    ReplayOptions one;
+    one.only = only;
+    ReplayOptions two = one;
+    two.threads = 2;
+    int64_t estimates_one = 0, estimates_two = 0;
+    const auto a = replay(one, 30, {}, "lab",
+                          [&](const ReplayHost& h) { estimates_one = h.stats().estimates_out; });
+    const auto b = replay(two, 30, {}, "lab",
+                          [&](const ReplayHost& h) { estimates_two = h.stats().estimates_out; });
+    ASSERT_GT(estimates_one, 300) << only.size();
+    EXPECT_EQ(estimates_one, estimates_two) << only.size();
+    ASSERT_EQ(a.size(), b.size()) << only.size();
+    EXPECT_TRUE(a == b) << only.size();
+  }
+}
+
+// A failure in the second stage (here the sink's) reaches the caller, from process() or finish(),
+// and the host still closes cleanly.
+TEST(ReplayHost, AnErrorOnTheSecondThreadIsThrownToTheCaller) {
+  sim::Scenario sc = sim::load_scenario("lab");
+  sc.duration_s = 20;
+  sim::Simulator sim(sc, 1, 1767225600000000);
+  ReplayOptions ro;
+  ro.threads = 2;
+  int calls = 0;
+  ReplayHost host(ro, CommonOptions{}, [&](const std::string&, int64_t, const uint8_t*, size_t) {
+    if (++calls == 1000) throw std::runtime_error("disk on fire");
+  });
+  std::string what;
+  try {
+    sim::SimEvent e;
+    while (sim.next(e)) host.process(e.kind, e.utime, e.data.data(), e.data.size());
+    host.finish();
+  } catch (const std::runtime_error& e) {
+    what = e.what();
+  }
+  EXPECT_EQ(what, "disk on fire");
+  EXPECT_EQ(calls, 1000);  // nothing run after the failure
 }
 
 // The TDoA estimator is hosted too: the lab's D1..D4 give POSE_TDOA after a UWB_RX report and a
