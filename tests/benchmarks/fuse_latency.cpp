@@ -26,6 +26,7 @@
 #include <random>
 #include <sstream>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "core/version.hpp"
@@ -95,6 +96,21 @@ double cpu_seconds(int pid) {
   return (utime + stime) / static_cast<double>(sysconf(_SC_CLK_TCK));
 }
 
+// The process's resident memory now and at its peak (VmRSS, VmHWM of /proc/PID/status), MB.
+std::pair<double, double> rss_mb(int pid) {
+  std::ifstream f("/proc/" + std::to_string(pid) + "/status");
+  double now = std::nan(""), peak = std::nan("");
+  for (std::string line; std::getline(f, line);) {
+    std::istringstream in(line);
+    std::string key;
+    double kb = 0;
+    in >> key >> kb;
+    if (key == "VmRSS:") now = kb / 1024.0;
+    if (key == "VmHWM:") peak = kb / 1024.0;
+  }
+  return {now, peak};
+}
+
 double percentile(std::vector<double> v, double p) {
   if (v.empty()) return std::nan("");
   std::sort(v.begin(), v.end());
@@ -113,7 +129,7 @@ int main(int argc, char** argv) {
       "ips-fuse over LCM and measures the latency from each range's publication to the "
       "POSE_FUSED it causes. Start ips-fuse with the site from --print-site.",
       "ips-fuse-latency"};
-  app.add_option("--tags", o.tags, "tags")->check(CLI::Range(1, 99));
+  app.add_option("--tags", o.tags, "tags")->check(CLI::Range(1, 1000));
   app.add_option("--anchors", o.anchors, "anchors ranged by every tag")->check(CLI::Range(3, 32));
   app.add_option("--range-hz", o.range_hz, "ranging rate per tag and anchor")
       ->check(CLI::Range(0.1, 1000.0));
@@ -122,7 +138,8 @@ int main(int argc, char** argv) {
   app.add_option("--warmup", o.warmup_s, "seconds published before measuring")
       ->check(CLI::Range(0.0, 60.0));
   app.add_option("--lcm-url", o.lcm_url, "LCM URL (default: LCM_DEFAULT_URL or LCM's)");
-  app.add_option("--cpu-pid", o.cpu_pid, "report the CPU time of this process (ips-fuse)");
+  app.add_option("--cpu-pid", o.cpu_pid,
+                 "report the CPU time and resident memory of this process (ips-fuse)");
   app.add_flag("--print-site", o.print_site, "print the site for ips-fuse --site and exit");
   app.set_version_flag("--version", ips::version_line("ips-fuse-latency"),
                        "print the program's version and build, and exit");
@@ -298,8 +315,10 @@ int main(int argc, char** argv) {
               percentile(added_us, 50), percentile(added_us, 90), percentile(added_us, 99),
               added_us.empty() ? std::nan("")
                                : *std::max_element(added_us.begin(), added_us.end()));
-  if (o.cpu_pid)
-    std::printf("cpu of pid %d: %.1f %% of one core\n", o.cpu_pid,
-                100.0 * (cpu1 - cpu0) / measured_s);
+  if (o.cpu_pid) {
+    const auto [rss, peak] = rss_mb(o.cpu_pid);
+    std::printf("cpu of pid %d: %.1f %% of one core; resident memory %.1f MB (peak %.1f MB)\n",
+                o.cpu_pid, 100.0 * (cpu1 - cpu0) / measured_s, rss, peak);
+  }
   return latency_us.empty() ? 1 : 0;
 }
