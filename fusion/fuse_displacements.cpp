@@ -170,10 +170,9 @@ void FuseEstimator::predict(const Track& t, Snapshot& s, utime_t to) const {
     s.velocity_t = b;
   };
   // The history is in time order: what ends by the cursor is skipped without a look.
-  const auto first = std::upper_bound(t.history.begin(), t.history.end(), cursor,
-                                      [](utime_t v, const Measurement& h) { return v < h.t; });
-  for (auto it = first; it != t.history.end(); ++it) {
-    const Measurement& d = *it;
+  const size_t first = t.history.upper_bound(cursor, [](const Measurement& h) { return h.t; });
+  for (size_t i = first; i < t.history.size(); ++i) {
+    const Measurement& d = t.history[i];
     if (d.kind != Measurement::Kind::kDisplacement || d.t <= cursor || d.t0 >= to) continue;
     const utime_t a = std::max(d.t0, cursor), b = std::min(d.t, to);
     if (b <= a) continue;

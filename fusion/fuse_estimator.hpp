@@ -49,6 +49,7 @@
 #include "estimators/uwb_tdoa/tdoa_estimator.hpp"
 #include "estimators/uwb_twr/twr_estimator.hpp"
 #include "fusion/fuse_filter.hpp"
+#include "fusion/fuse_ring.hpp"
 #include "fusion/gyro_heading.hpp"
 #include "fusion/models/tdoa.hpp"
 #include "fusion/models/tdoa_pair.hpp"
@@ -245,8 +246,8 @@ class FuseEstimator {
     bool absolute_seen = false;  // ... nor, after a fix in the site's frame, a dead-reckoning one
     Snapshot state;
     Snapshot base;                    // the state before the history's first message
-    std::deque<Measurement> history;  // fused, in time order, the last max_delay_s
-    std::deque<Snapshot> snapshots;   // the state after each of them
+    Ring<Measurement> history;  // fused, in time order, the last max_delay_s
+    Ring<Snapshot> snapshots;   // the state after each of them
     DisplacementSource displacement = DisplacementSource::kNone;
     bool have_last_dr = false;        // the last dead-reckoning position or step time
     utime_t last_dr_t = 0;

@@ -26,10 +26,8 @@ void FuseEstimator::add(const std::string& tag_id, Track& t, Measurement m) {
   t.newest = std::max(t.newest, m.t);
   if (m.kind != Measurement::Kind::kDisplacement) t.absolute_seen = true;
   // In time order into the history.
-  auto pos = std::upper_bound(t.history.begin(), t.history.end(), m.t,
-                              [](utime_t v, const Measurement& h) { return v < h.t; });
-  const size_t index = static_cast<size_t>(pos - t.history.begin());
-  t.history.insert(pos, std::move(m));
+  const size_t index = t.history.upper_bound(m.t, [](const Measurement& h) { return h.t; });
+  t.history.insert(index, std::move(m));
   if (from >= t.state.t && index + 1 == t.history.size()) {
     apply(t, t.state, t.history.back(), true);
     t.snapshots.push_back(t.state);
@@ -42,7 +40,7 @@ void FuseEstimator::add(const std::string& tag_id, Track& t, Measurement m) {
            k != index)
       ++k;
     Snapshot s = k == 0 ? t.base : t.snapshots[k - 1];
-    t.snapshots.resize(k);
+    t.snapshots.truncate(k);
     for (size_t j = k; j < t.history.size(); ++j) {
       apply(t, s, t.history[j], j == index);
       t.snapshots.push_back(s);
