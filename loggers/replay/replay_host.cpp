@@ -260,6 +260,14 @@ void ReplayHost::run(const Step& s, const uint8_t* data) {
     ++counts_[kFuseIndex].in;
     use(decoded(std::move(msg)));
   };
+  // A first-stage estimator's estimate: written, heard by ips-zones, handed to the fusion.
+  const auto emitted = [&](auto msg) {
+    const auto m = decoded(std::move(msg));
+    ++stats_.estimates_out;
+    sink_(channel, s.timestamp, data, s.size);
+    zones_hear(channel, m);
+    if (fuse_) feed_fuse(channel, m);
+  };
   switch (s.op) {
     case Op::kWrite:
       sink_(channel, s.timestamp, data, s.size);
@@ -268,29 +276,15 @@ void ReplayHost::run(const Step& s, const uint8_t* data) {
       ++stats_.estimates_out;
       sink_(channel, s.timestamp, data, s.size);
       break;
-    case Op::kEmitPose: {
-      const pose_t m = decoded(pose_t{});
-      ++stats_.estimates_out;
-      sink_(channel, s.timestamp, data, s.size);
-      zones_hear(channel, m);
-      if (fuse_) feed_fuse(channel, m);
+    case Op::kEmitPose:
+      emitted(pose_t{});
       break;
-    }
-    case Op::kEmitStep: {
-      const step_t m = decoded(step_t{});
-      ++stats_.estimates_out;
-      sink_(channel, s.timestamp, data, s.size);
-      if (fuse_) feed_fuse(channel, m);
+    case Op::kEmitStep:
+      emitted(step_t{});
       break;
-    }
-    case Op::kEmitAltitude: {
-      const altitude_t m = decoded(altitude_t{});
-      ++stats_.estimates_out;
-      sink_(channel, s.timestamp, data, s.size);
-      zones_hear(channel, m);
-      if (fuse_) feed_fuse(channel, m);
+    case Op::kEmitAltitude:
+      emitted(altitude_t{});
       break;
-    }
     case Op::kFuseRange:
       to_fuse(uwb_range_t{}, [this](const uwb_range_t& m) { fuse_->on_range(m); });
       break;
