@@ -61,13 +61,17 @@ double StepDetector::step_period(double* corr) const {
   double mean = 0;
   for (int i = 0; i < n; ++i) mean += grid_[off + static_cast<size_t>(i)];
   mean /= n;
+  // The window less its mean, once (not per lag: the same numbers).
+  std::vector<double> c(static_cast<size_t>(n));
+  for (int i = 0; i < n; ++i)
+    c[static_cast<size_t>(i)] = grid_[off + static_cast<size_t>(i)] - mean;
   // Normalised autocorrelation over the overlap, lags lmin - 1 .. lmax + 1.
   std::vector<double> r(static_cast<size_t>(lmax + 2), 0.0);
   for (int lag = lmin - 1; lag <= lmax + 1; ++lag) {
     double sxy = 0, sxx = 0, syy = 0;
     for (int i = 0; i + lag < n; ++i) {
-      const double a = grid_[off + static_cast<size_t>(i)] - mean;
-      const double b = grid_[off + static_cast<size_t>(i + lag)] - mean;
+      const double a = c[static_cast<size_t>(i)];
+      const double b = c[static_cast<size_t>(i + lag)];
       sxy += a * b;
       sxx += a * a;
       syy += b * b;
