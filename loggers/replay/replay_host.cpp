@@ -178,9 +178,36 @@ uint32_t ReplayHost::intern(const std::string& channel) {
   return index;
 }
 
-void ReplayHost::post(Op op, const std::string& channel, const uint8_t* data, size_t size,
-                      bool stable) {
-  const uint32_t ch = intern(channel);
+const ReplayHost::ChannelInfo& ReplayHost::classify(const std::string& channel) {
+  const auto it = channel_info_.find(channel);
+  if (it != channel_info_.end()) return it->second;
+  ChannelInfo c;
+  c.id = intern(channel);
+  c.produced = produced_channels_.count(channel) > 0;
+  const auto is = [&](const char* kind) { return channel == channels_.channel(kind); };
+  if (is(channel::kSite)) {
+    c.input = Input::kSite;
+  } else if (is(channel::kUwbRange)) {
+    c.input = Input::kUwbRange;
+  } else if (is(channel::kUwbRx)) {
+    c.input = Input::kUwbRx;
+  } else if (is("UWB_TDOA")) {  // pairwise TDoA
+    c.input = Input::kUwbTdoa;
+  } else if (is(channel::kBleAoa)) {
+    c.input = Input::kBleAoa;
+  } else if (is(channel::kImu)) {
+    c.input = Input::kImu;
+  } else if (is(channel::kBaro)) {
+    c.input = Input::kBaro;
+  }
+  // What a hosted estimator regenerates reaches ips-zones and ips-fuse as it is written.
+  c.to_zones = zones_ && !c.produced &&
+               (channel == opts_.zones_pose_channel || is(channel::kAltitude) || is(channel::kHealth));
+  c.to_fuse = fuse_ && !c.produced && fuse_log_channels_.count(channel) > 0;
+  return channel_info_.emplace(channel, c).first->second;
+}
+
+void ReplayHost::post(Op op, uint32_t ch, const uint8_t* data, size_t size, bool stable) {
   if (!threaded_) {
     run(Step{op, ch, now_timestamp_, data, 0, size}, data);
     return;
@@ -499,102 +526,99 @@ void ReplayHost::process(const std::string& channel, int64_t timestamp, const ui
   if (worker_failed_) rethrow_worker_error();
   ++stats_.events_in;
   now_timestamp_ = timestamp;
-  const bool produced = produced_channels_.count(channel) > 0;
+  const ChannelInfo& c = classify(channel);
   // Inputs pass through first, so each estimate follows the input that caused it.
-  if (produced && !opts_.keep_regenerated) {
+  if (c.produced && !opts_.keep_regenerated) {
     ++stats_.dropped_regenerated;
   } else {
     ++stats_.passed_through;
-    post(Op::kWrite, channel, data, size, stable);
+    post(Op::kWrite, c.id, data, size, stable);
   }
-  // What a hosted estimator regenerates reaches ips-zones as it is written.
-  if (zones_ && !produced &&
-      (channel == opts_.zones_pose_channel || channel == channels_.channel(channel::kAltitude) ||
-       channel == channels_.channel(channel::kHealth)))
-    post(Op::kZonesFromLog, channel, data, size, stable);
-  if (channel == channels_.channel(channel::kSite) && opts_.site_path.empty() && !opts_.site) {
-    site_t m;
-    if (!decode_message(m, data, size)) {
-      ++stats_.undecodable;
-      return;
+  if (c.to_zones) post(Op::kZonesFromLog, c.id, data, size, stable);
+  // Decodes the event as Msg: false, counted, when it is not one.
+  const auto decode = [&](auto& m) {
+    if (decode_message(m, data, size)) return true;
+    ++stats_.undecodable;
+    return false;
+  };
+  switch (c.input) {
+    case Input::kSite: {
+      if (!opts_.site_path.empty() || opts_.site) break;
+      site_t m;
+      if (!decode(m) || m.site_yaml == last_site_yaml_) break;
+      try {
+        apply_site(site_from_msg(m));
+        last_site_yaml_ = m.site_yaml;
+      } catch (const ConfigError&) {
+        ++stats_.bad_sites;
+      }
+      break;
     }
-    if (m.site_yaml == last_site_yaml_) return;
-    try {
-      apply_site(site_from_msg(m));
-      last_site_yaml_ = m.site_yaml;
-    } catch (const ConfigError&) {
-      ++stats_.bad_sites;
+    case Input::kUwbRange: {
+      uwb_range_t m;
+      if (!(twr_ || fuse_) || !decode(m)) break;
+      if (twr_) {
+        ++counts_[kTwrIndex].in;
+        twr_->on_range(m);
+      }
+      if (fuse_) post(Op::kFuseRange, c.id, data, size, stable);
+      break;
     }
-  } else if ((twr_ || fuse_) && channel == channels_.channel(channel::kUwbRange)) {
-    uwb_range_t m;
-    if (!decode_message(m, data, size)) {
-      ++stats_.undecodable;
-      return;
+    case Input::kUwbRx: {
+      uwb_rx_t m;
+      if (!(tdoa_ || fuse_) || !decode(m)) break;
+      // ips-fuse hears a blink before the POSE_TDOA made of it, as on the bus.
+      if (fuse_) post(Op::kFuseRx, c.id, data, size, stable);
+      if (tdoa_) {
+        ++counts_[kTdoaIndex].in;
+        tdoa_->on_rx(m);
+      }
+      break;
     }
-    if (twr_) {
-      ++counts_[kTwrIndex].in;
-      twr_->on_range(m);
+    case Input::kUwbTdoa: {
+      uwb_tdoa_t m;
+      if (!(tdoa_ || fuse_) || !decode(m)) break;
+      if (fuse_) post(Op::kFusePair, c.id, data, size, stable);
+      if (tdoa_) {
+        ++counts_[kTdoaIndex].in;
+        tdoa_->on_pair(m);
+      }
+      break;
     }
-    if (fuse_) post(Op::kFuseRange, channel, data, size, stable);
-  } else if ((tdoa_ || fuse_) && channel == channels_.channel(channel::kUwbRx)) {
-    uwb_rx_t m;
-    if (!decode_message(m, data, size)) {
-      ++stats_.undecodable;
-      return;
+    case Input::kBleAoa: {
+      ble_aoa_t m;
+      if (!(aoa_ || fuse_) || !decode(m)) break;
+      if (fuse_) post(Op::kFuseAoa, c.id, data, size, stable);
+      if (aoa_) {
+        ++counts_[kAoaIndex].in;
+        aoa_->on_event(m);
+      }
+      break;
     }
-    // ips-fuse hears a blink before the POSE_TDOA made of it, as on the bus.
-    if (fuse_) post(Op::kFuseRx, channel, data, size, stable);
-    if (tdoa_) {
-      ++counts_[kTdoaIndex].in;
-      tdoa_->on_rx(m);
+    case Input::kImu: {
+      imu_t m;
+      if (!(pdr_ || ins_ || fuse_) || !decode(m)) break;
+      if (fuse_) post(Op::kFuseImu, c.id, data, size, stable);
+      if (pdr_) {
+        ++counts_[kPdrIndex].in;
+        pdr_->on_imu(m);
+      }
+      if (ins_) {
+        ++counts_[kInsIndex].in;
+        ins_->on_imu(m);
+      }
+      break;
     }
-  } else if ((tdoa_ || fuse_) && channel == channels_.channel("UWB_TDOA")) {  // pairwise TDoA
-    uwb_tdoa_t m;
-    if (!decode_message(m, data, size)) {
-      ++stats_.undecodable;
-      return;
+    case Input::kBaro: {
+      baro_t m;
+      if (!altitude_ || !decode(m)) break;
+      ++counts_[kAltitudeIndex].in;
+      altitude_->on_baro(m);
+      break;
     }
-    if (fuse_) post(Op::kFusePair, channel, data, size, stable);
-    if (tdoa_) {
-      ++counts_[kTdoaIndex].in;
-      tdoa_->on_pair(m);
-    }
-  } else if ((aoa_ || fuse_) && channel == channels_.channel(channel::kBleAoa)) {
-    ble_aoa_t m;
-    if (!decode_message(m, data, size)) {
-      ++stats_.undecodable;
-      return;
-    }
-    if (fuse_) post(Op::kFuseAoa, channel, data, size, stable);
-    if (aoa_) {
-      ++counts_[kAoaIndex].in;
-      aoa_->on_event(m);
-    }
-  } else if ((pdr_ || ins_ || fuse_) && channel == channels_.channel(channel::kImu)) {
-    imu_t m;
-    if (!decode_message(m, data, size)) {
-      ++stats_.undecodable;
-      return;
-    }
-    if (fuse_) post(Op::kFuseImu, channel, data, size, stable);
-    if (pdr_) {
-      ++counts_[kPdrIndex].in;
-      pdr_->on_imu(m);
-    }
-    if (ins_) {
-      ++counts_[kInsIndex].in;
-      ins_->on_imu(m);
-    }
-  } else if (altitude_ && channel == channels_.channel(channel::kBaro)) {
-    baro_t m;
-    if (!decode_message(m, data, size)) {
-      ++stats_.undecodable;
-      return;
-    }
-    ++counts_[kAltitudeIndex].in;
-    altitude_->on_baro(m);
-  } else if (fuse_ && !produced && fuse_log_channels_.count(channel)) {
-    post(Op::kFuseFromLog, channel, data, size, stable);
+    case Input::kOther:
+      if (c.to_fuse) post(Op::kFuseFromLog, c.id, data, size, stable);
+      break;
   }
 }
 

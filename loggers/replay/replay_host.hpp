@@ -172,7 +172,21 @@ class ReplayHost {
   };
   uint32_t intern(const std::string& channel);
   // Hands a step to the second stage: run now (one thread), or taped (two).
-  void post(Op op, const std::string& channel, const uint8_t* data, size_t size, bool stable);
+  void post(Op op, uint32_t channel, const uint8_t* data, size_t size, bool stable);
+  void post(Op op, const std::string& channel, const uint8_t* data, size_t size, bool stable) {
+    post(op, intern(channel), data, size, stable);
+  }
+  // What the host does with a channel's log events, worked out once per channel name.
+  enum class Input : uint8_t { kOther, kSite, kUwbRange, kUwbRx, kUwbTdoa, kBleAoa, kImu, kBaro };
+  struct ChannelInfo {
+    uint32_t id = 0;  // interned
+    Input input = Input::kOther;
+    bool produced = false;  // a hosted estimator regenerates it
+    bool to_zones = false;  // the hosted ips-zones reads it from the log
+    bool to_fuse = false;   // the hosted ips-fuse reads it from the log (feed_fuse_from_log)
+  };
+  const ChannelInfo& classify(const std::string& channel);
+  std::unordered_map<std::string, ChannelInfo> channel_info_;
   void run(const Step& s, const uint8_t* data);
   void run_batch(const Batch& b);
   void submit();  // the current batch to the second thread
