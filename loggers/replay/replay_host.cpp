@@ -389,6 +389,14 @@ template <class Msg>
 void ReplayHost::emit(const std::string& channel, const Msg& msg) {
   buffer_.resize(static_cast<size_t>(msg.getEncodedSize()));
   msg.encode(buffer_.data(), 0, static_cast<int>(buffer_.size()));
+  if (!threaded_) {  // what run() does with the step, without decoding what is at hand
+    stage_timestamp_ = now_timestamp_;
+    ++stats_.estimates_out;
+    sink_(channel, now_timestamp_, buffer_.data(), buffer_.size());
+    zones_hear(channel, msg);
+    if (fuse_) feed_fuse(channel, msg);
+    return;
+  }
   Op op = Op::kEstimate;
   if constexpr (std::is_same_v<Msg, pose_t>) op = Op::kEmitPose;
   if constexpr (std::is_same_v<Msg, step_t>) op = Op::kEmitStep;
