@@ -48,14 +48,22 @@ void EpochGrouper::add(size_t tag_index, const AoaEvent& e) {
   if (last.seen) {
     const utime_t dt = e.utime - last.utime;
     if (dt > 0 && dt < 2'000'000) {  // a gap beyond 2 s is an outage, not the rate
+      const auto sorted = rate.sorted.begin();
+      auto end = sorted + static_cast<std::ptrdiff_t>(rate.count);
+      if (rate.count == kIntervals) {  // the oldest leaves
+        const auto old = std::lower_bound(sorted, end, rate.intervals[rate.next]);
+        std::move(old + 1, end, old);
+        --end;
+      } else {
+        ++rate.count;
+      }
+      const auto at = std::upper_bound(sorted, end, dt);
+      std::move_backward(at, end, end + 1);
+      *at = dt;
       rate.intervals[rate.next] = dt;
-      rate.count = std::min(rate.count + 1, kIntervals);
       rate.next = (rate.next + 1) % kIntervals;
       if (rate.count >= kMinIntervals) {
-        std::array<utime_t, kIntervals> v = rate.intervals;
-        const auto mid = v.begin() + static_cast<std::ptrdiff_t>(rate.count / 2);
-        std::nth_element(v.begin(), mid, v.begin() + static_cast<std::ptrdiff_t>(rate.count));
-        rate.median = *mid;
+        rate.median = rate.sorted[rate.count / 2];
         rate.window = std::min(
             window_us_, static_cast<utime_t>(kAdvertisingFraction * static_cast<double>(rate.median)));
       }

@@ -73,6 +73,7 @@ class EpochGrouper {
     };
     std::vector<Last> last;  // per anchor index
     std::array<utime_t, kIntervals> intervals{};  // ring of the newest kIntervals
+    std::array<utime_t, kIntervals> sorted{};     // the same, in order: the median is read
     size_t count = 0;
     size_t next = 0;
     utime_t median = 0;
