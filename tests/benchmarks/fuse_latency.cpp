@@ -7,8 +7,11 @@
 // the poses missing, and with --cpu-pid the CPU used by that process meanwhile. As a baseline it
 // also receives its own ranges: the bus's and the machine's share of the latency, without
 // ips-fuse. Per range, the pose's arrival minus the range's own arrival is what ips-fuse adds
-// (its receive, update and publish, and the second hop).
+// (its receive, update and publish, and the second hop). Every range is numbered per tag and
+// anchor (uwb_range_t.seq), so a receiver's HEALTH seq_lost counts what the bus lost of them;
+// --json writes the figures and the messages published per channel for scripts/bench-bus-load.
 #include <poll.h>
+#include <sys/resource.h>
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
@@ -23,12 +26,14 @@
 #include <ips/uwb_range_t.hpp>
 #include <lcm/lcm-cpp.hpp>
 #include <map>
+#include <nlohmann/json.hpp>
 #include <random>
 #include <sstream>
 #include <string>
 #include <utility>
 #include <vector>
 
+#include "core/tag_selector.hpp"
 #include "core/version.hpp"
 
 namespace {
@@ -45,6 +50,8 @@ struct Options {
   double warmup_s = 2;
   std::string lcm_url;
   int cpu_pid = 0;
+  int shards = 1;
+  std::string json_path;
   bool print_site = false;
 };
 
@@ -140,6 +147,11 @@ int main(int argc, char** argv) {
   app.add_option("--lcm-url", o.lcm_url, "LCM URL (default: LCM_DEFAULT_URL or LCM's)");
   app.add_option("--cpu-pid", o.cpu_pid,
                  "report the CPU time and resident memory of this process (ips-fuse)");
+  app.add_option("--shards", o.shards,
+                 "also report the added latency per shard of N (tags by ips-fuse --shard's hash)")
+      ->check(CLI::Range(1, ips::kMaxShards));
+  app.add_option("--json", o.json_path,
+                 "write the figures, and the messages published per channel, to this file");
   app.add_flag("--print-site", o.print_site, "print the site for ips-fuse --site and exit");
   app.set_version_flag("--version", ips::version_line("ips-fuse-latency"),
                        "print the program's version and build, and exit");
@@ -160,8 +172,10 @@ int main(int argc, char** argv) {
   // The same ranges as heard back on UWB_RANGE (the loop through the kernel and this process).
   std::map<std::pair<std::string, int64_t>, Clock::time_point> sent_own;
   std::vector<double> own_us, added_us;
+  // The added latency by the tag's shard (index 0 for shard 1).
+  std::vector<std::vector<double>> added_by_shard(static_cast<size_t>(o.shards));
   std::map<std::pair<std::string, int64_t>, Clock::time_point> heard_own;
-  int64_t measured_sent = 0, poses = 0;
+  int64_t measured_sent = 0, poses = 0, poses_warmup = 0;
   bool measuring = false;
   struct Handler {
     std::map<std::pair<std::string, int64_t>, Clock::time_point>* sent;
@@ -171,6 +185,7 @@ int main(int argc, char** argv) {
     std::vector<double>* own_us;
     std::map<std::pair<std::string, int64_t>, Clock::time_point>* heard_own;
     std::vector<double>* added_us;
+    std::vector<std::vector<double>>* added_by_shard;
     void on_pose(const lcm::ReceiveBuffer*, const std::string&, const ips::pose_t* p) {
       const auto now = Clock::now();
       ++*poses;
@@ -181,7 +196,10 @@ int main(int argc, char** argv) {
       sent->erase(it);
       const auto own = heard_own->find(key);
       if (own == heard_own->end()) return;
-      added_us->push_back(std::chrono::duration<double, std::micro>(now - own->second).count());
+      const double added = std::chrono::duration<double, std::micro>(now - own->second).count();
+      added_us->push_back(added);
+      const int shards = static_cast<int>(added_by_shard->size());
+      (*added_by_shard)[static_cast<size_t>(ips::shard_of(p->tag_id, shards) - 1)].push_back(added);
       heard_own->erase(own);
     }
     void on_range(const lcm::ReceiveBuffer*, const std::string&, const ips::uwb_range_t* r) {
@@ -192,15 +210,25 @@ int main(int argc, char** argv) {
       sent_own->erase(it);
       (*heard_own)[{r->tag_id, r->utime}] = now;
     }
-  } handler{&sent, &latency_us, &poses, &sent_own, &own_us, &heard_own, &added_us};
-  bus.subscribe("POSE_FUSED", &Handler::on_pose, &handler);
-  bus.subscribe("UWB_RANGE", &Handler::on_range, &handler);
+  } handler{&sent,    &latency_us, &poses,   &sent_own,
+             &own_us,  &heard_own,  &added_us, &added_by_shard};
+  // liblcm keeps 30 messages per subscription by default and drops the rest without a word: at
+  // 100 tags, while this thread publishes, that lost 0.3 % of the poses (and up to 10 % on a
+  // busier machine), counted as missing though ips-fuse had published them. The programs' default
+  // (--lcm-queue, docs/networking.md#loss) instead.
+  constexpr int kQueue = 20000;
+  bus.subscribe("POSE_FUSED", &Handler::on_pose, &handler)->setQueueCapacity(kQueue);
+  bus.subscribe("UWB_RANGE", &Handler::on_range, &handler)->setQueueCapacity(kQueue);
 
-  // Waits up to timeout_ms for a message, then handles every one that is there (handleTimeout
-  // takes one at a time: a backlog would add to the latencies measured).
-  auto receive_all = [&](int timeout_ms) {
+  // Waits up to timeout_s for a message, then handles every one that is there (handleTimeout
+  // takes one at a time: a backlog would add to the latencies measured). The wait is to the
+  // microsecond (ppoll): rounded down to poll's milliseconds it was 0 below 1 ms, and at 1000
+  // messages a second and more the tool spun a whole core, which it then took from ips-fuse.
+  auto receive_all = [&](double timeout_s) {
     pollfd pfd{bus.getFileno(), POLLIN, 0};
-    int ready = poll(&pfd, 1, timeout_ms);
+    const auto ns = static_cast<long>(std::max(0.0, timeout_s) * 1e9);
+    const timespec wait{ns / 1000000000L, ns % 1000000000L};
+    int ready = ppoll(&pfd, 1, &wait, nullptr);
     while (ready > 0) {
       bus.handleTimeout(0);
       ready = poll(&pfd, 1, 0);
@@ -219,13 +247,20 @@ int main(int argc, char** argv) {
   struct Stream {
     double next_s;
     int tag, anchor;  // anchor -1: the IMU
+    int32_t seq = 0;  // the stream's next number (uwb_range_t.seq per tag and anchor)
   };
   std::vector<Stream> streams;
   for (int i = 0; i < o.tags; ++i) {
     for (int k = 0; k < o.anchors; ++k)
-      streams.push_back({range_period * (k + static_cast<double>(i) / o.tags) / o.anchors, i, k});
-    if (imu_period > 0) streams.push_back({imu_period * i / o.tags, i, -1});
+      streams.push_back(
+          {range_period * (k + static_cast<double>(i) / o.tags) / o.anchors, i, k, 0});
+    if (imu_period > 0) streams.push_back({imu_period * i / o.tags, i, -1, 0});
   }
+  // The streams by due time, soonest first (a heap: not a scan of every stream per message).
+  const auto later = [&](size_t a, size_t b) { return streams[a].next_s > streams[b].next_s; };
+  std::vector<size_t> due(streams.size());
+  for (size_t k = 0; k < due.size(); ++k) due[k] = k;
+  std::make_heap(due.begin(), due.end(), later);
   double cpu0 = 0, measure_start_s = 0;
   const double end_s = o.warmup_s + o.seconds;
   ips::uwb_range_t r{};
@@ -234,7 +269,7 @@ int main(int argc, char** argv) {
   imu.source = "ips-fuse-latency";
   imu.device_utime = -1;
   for (int a = 0; a < 3; ++a) imu.mag_ut[a] = std::nan("");
-  int64_t published = 0;
+  int64_t published_ranges = 0, published_imu = 0;
   for (;;) {
     const double now_s = std::chrono::duration<double>(Clock::now() - start).count();
     if (!measuring && now_s >= o.warmup_s) {
@@ -245,14 +280,17 @@ int main(int argc, char** argv) {
       own_us.clear();
       sent_own.clear();
       added_us.clear();
+      for (auto& v : added_by_shard) v.clear();
       heard_own.clear();
+      poses_warmup = poses;
       poses = 0;
       if (o.cpu_pid) cpu0 = cpu_seconds(o.cpu_pid);
     }
     if (now_s >= end_s) break;
-    double next_due = end_s;
-    for (Stream& s : streams) {
-      if (s.next_s <= now_s) {
+    while (streams[due.front()].next_s <= now_s) {
+      std::pop_heap(due.begin(), due.end(), later);
+      Stream& s = streams[due.back()];
+      {
         const int64_t utime = wall0_us + static_cast<int64_t>(std::llround(s.next_s * 1e6));
         const std::string id = tag_id(s.tag);
         if (s.anchor >= 0) {
@@ -261,7 +299,7 @@ int main(int argc, char** argv) {
           r.anchor_id = "A" + std::to_string(s.anchor + 1);
           r.range_m = (tag_position(s.tag, s.next_s) - anchor_position(s.anchor, o.anchors)).norm() +
                       noise(rng);
-          r.seq = static_cast<int32_t>(published);
+          r.seq = s.seq++;
           if (measuring) {
             const auto now = Clock::now();
             sent[{id, utime}] = now;
@@ -269,6 +307,7 @@ int main(int argc, char** argv) {
             ++measured_sent;
           }
           bus.publish("UWB_RANGE", &r);
+          ++published_ranges;
           s.next_s += range_period;
         } else {
           imu.utime = utime;
@@ -278,20 +317,19 @@ int main(int argc, char** argv) {
           imu.gyro[0] = imu.gyro[1] = 0;
           imu.gyro[2] = 1.0 / (2 + 0.5 * (s.tag % 14));  // walking the circle
           bus.publish("IMU", &imu);
+          ++published_imu;
           s.next_s += imu_period;
         }
-        ++published;
       }
-      next_due = std::min(next_due, s.next_s);
+      std::push_heap(due.begin(), due.end(), later);
     }
     // Receive until the next message is due.
-    const double wait_s =
-        next_due - std::chrono::duration<double>(Clock::now() - start).count();
-    receive_all(std::max(0, static_cast<int>(wait_s * 1000)));
+    const double next_due = std::min(end_s, streams[due.front()].next_s);
+    receive_all(next_due - std::chrono::duration<double>(Clock::now() - start).count());
   }
   // The last poses: half a second.
   const auto drain_end = Clock::now() + std::chrono::milliseconds(500);
-  while (Clock::now() < drain_end) receive_all(50);
+  while (Clock::now() < drain_end) receive_all(0.05);
   const double measured_s =
       std::chrono::duration<double>(Clock::now() - start).count() - measure_start_s;
   const double cpu1 = o.cpu_pid ? cpu_seconds(o.cpu_pid) : 0;
@@ -315,10 +353,66 @@ int main(int argc, char** argv) {
               percentile(added_us, 50), percentile(added_us, 90), percentile(added_us, 99),
               added_us.empty() ? std::nan("")
                                : *std::max_element(added_us.begin(), added_us.end()));
+  nlohmann::json out;
+  if (o.shards > 1) {
+    out["added_us_by_shard"] = nlohmann::json::array();
+    for (int k = 1; k <= o.shards; ++k) {
+      const std::vector<double>& v = added_by_shard[static_cast<size_t>(k - 1)];
+      std::printf("  shard %d/%d: %zu poses, added p50 %.0f p99 %.0f us\n", k, o.shards, v.size(),
+                  percentile(v, 50), percentile(v, 99));
+      out["added_us_by_shard"].push_back(
+          {{"shard", k}, {"n", v.size()}, {"p50", percentile(v, 50)}, {"p99", percentile(v, 99)}});
+    }
+  }
   if (o.cpu_pid) {
     const auto [rss, peak] = rss_mb(o.cpu_pid);
+    const double cpu_pct = 100.0 * (cpu1 - cpu0) / measured_s;
     std::printf("cpu of pid %d: %.1f %% of one core; resident memory %.1f MB (peak %.1f MB)\n",
-                o.cpu_pid, 100.0 * (cpu1 - cpu0) / measured_s, rss, peak);
+                o.cpu_pid, cpu_pct, rss, peak);
+    out["cpu_pid"] = {{"pid", o.cpu_pid}, {"cpu_pct", cpu_pct}, {"rss_mb", rss}, {"peak_mb", peak}};
+  }
+  // This process's own share, over its whole run.
+  rusage self{};
+  getrusage(RUSAGE_SELF, &self);
+  const auto tv_s = [](const timeval& t) {
+    return static_cast<double>(t.tv_sec) + static_cast<double>(t.tv_usec) / 1e6;
+  };
+  const double run_s = std::chrono::duration<double>(Clock::now() - start).count();
+  const double self_cpu_pct = 100.0 * (tv_s(self.ru_utime) + tv_s(self.ru_stime)) / run_s;
+  const double self_peak_mb = static_cast<double>(self.ru_maxrss) / 1024.0;
+  std::printf("published, whole run (warm-up included): UWB_RANGE %lld, IMU %lld; poses received "
+              "%lld; this process: cpu %.1f %% of one core, peak resident memory %.1f MB\n",
+              static_cast<long long>(published_ranges), static_cast<long long>(published_imu),
+              static_cast<long long>(poses_warmup + poses), self_cpu_pct, self_peak_mb);
+  if (!o.json_path.empty()) {
+    const auto pct = [&](const std::vector<double>& v) {
+      return nlohmann::json{{"n", v.size()},
+                            {"p50", percentile(v, 50)},
+                            {"p90", percentile(v, 90)},
+                            {"p99", percentile(v, 99)},
+                            {"max", v.empty() ? std::nan("") : *std::max_element(v.begin(), v.end())}};
+    };
+    out["tags"] = o.tags;
+    out["anchors"] = o.anchors;
+    out["seconds"] = o.seconds;
+    out["measured_ranges"] = measured_sent;
+    out["poses_missing"] = sent.size();
+    out["latency_us"] = pct(latency_us);
+    out["baseline_us"] = pct(own_us);
+    out["added_us"] = pct(added_us);
+    out["published"] = {{"UWB_RANGE", published_ranges}, {"IMU", published_imu}};
+    out["poses_received"] = poses_warmup + poses;
+    out["self"] = {{"pid", static_cast<int>(getpid())},
+                   {"cpu_pct", self_cpu_pct},
+                   {"peak_mb", self_peak_mb},
+                   {"run_s", run_s}};
+    std::ofstream f(o.json_path);
+    // nlohmann writes NaN as null.
+    f << out.dump(1) << "\n";
+    if (!f) {
+      std::fprintf(stderr, "ips-fuse-latency: cannot write %s\n", o.json_path.c_str());
+      return 2;
+    }
   }
   return latency_us.empty() ? 1 : 0;
 }
