@@ -122,7 +122,7 @@ void LogReader::consume(size_t n) {
 }
 
 bool LogReader::magic_at(size_t i) const {
-  return std::memcmp(base_ + i, kMagicBytes, 4) == 0;
+  return be32(base_ + i) == LogReader::kMagic;
 }
 
 size_t LogReader::find_magic(size_t from, size_t to) const {
@@ -228,7 +228,9 @@ const LogEvent* LogReader::next() {
     // word cut short counts). Anything else means damage began inside it: its bytes or its
     // length are not what was recorded.
     const size_t follow = std::min<size_t>(avail() - size, 4);
-    if (std::memcmp(base_ + begin_ + size, kMagicBytes, follow) != 0) {
+    const bool followed = follow == 4 ? magic_at(begin_ + size)
+                                      : std::memcmp(base_ + begin_ + size, kMagicBytes, follow) == 0;
+    if (!followed) {
       const Scan s = scan_to_magic(1);
       add_garbage(start, s.skipped);
       if (!s.found) finish();
