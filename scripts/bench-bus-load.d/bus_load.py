@@ -112,6 +112,14 @@ def report(work, shards, rt):
     total = published['UWB_RANGE'] + published['IMU']
     print(f'published by ips-fuse-latency (whole run): {total} messages, '
           f'{total / (load["self"]["run_s"]):.0f}/s')
+    # The load's own schedule (2 s of warm-up): short of it, the tool fell behind, and its
+    # latencies are its own backlog, not the bus's or ips-fuse's.
+    due = tags * (load['anchors'] * 10 + 100) * (load['seconds'] + 2)
+    behind = total < 0.99 * due or (load['baseline_us']['p50'] or 0) > 1000
+    if behind:
+        print(f'WARNING: the load fell behind ({total} of {due} messages due; the bus loop p50 '
+              f'{fmt(load["baseline_us"]["p50"])} us): the machine did not give it the CPU, and '
+              f'the latencies below measure its backlog. Run again on a quieter machine.')
     print('\nper channel      published   recorded   missing')
     missing_rec = 0
     for chan in ('UWB_RANGE', 'IMU', 'POSE_FUSED'):
@@ -183,8 +191,8 @@ def report(work, shards, rt):
 
     limit = 100 if tags <= 10 else 300
     p99 = add['p99']
-    goals.append((f'ips-fuse p99 added <= {limit} us at {tags} tags', fmt(p99), f'{limit}',
-                  p99 is not None and p99 <= limit))
+    goals.append((f'ips-fuse p99 added <= {limit} us at {tags} tags', fmt(p99) +
+                  (' (load behind)' if behind else ''), f'{limit}', p99 is not None and p99 <= limit))
     goals.append(('every process peak RSS <= 30 MB', f'{worst:.1f} MB', '30 MB', worst <= 30))
     goals.append(('messages lost on the bus (documented 4 MiB buffer)', str(bus_lost), '0',
                   bus_lost == 0))
