@@ -242,8 +242,10 @@ TEST(LogReader, AMappedFileIsReadInPlaceAsStdioReadsIt) {
       ++i;
     }
     EXPECT_EQ(i, want.size());
-    for (size_t k = 0; k < kept.size(); ++k)
+    for (size_t k = 0; k < kept.size(); ++k) {
+      if (want[k].data.empty()) continue;
       EXPECT_EQ(std::memcmp(kept[k], want[k].data.data(), want[k].data.size()), 0) << k;
+    }
   }
   // An empty file cannot be mapped: failed(), and LogInput reads it through stdio instead.
   TempLog empty;
