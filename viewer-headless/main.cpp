@@ -9,6 +9,8 @@
 //   ips-view render --live 3 --out map.png       the map after listening to the bus for 3 s
 //   ips-view render --live 3 --wait-site 30 ...  the same, listening on (at most 30 s more)
 //                                                until a SITE message has come
+//   ips-view render --live 3 --wait-site 30 --min-tracks 4 ...  and until 4 tracks (a tag on
+//                                                one channel) are on the map
 //
 // HTTP (docs/viewer.md): GET / (the page), /view.js, /view.css, /api/state (JSON snapshot;
 // ?trails=0 without trails), /api/info, /map.svg, and /events (Server-Sent Events: "state" and
@@ -89,6 +91,7 @@ struct RenderOptions {
   std::string log;
   double live_s = 0;
   double wait_site_s = 0;  // with live_s: listen up to this much longer for a SITE message
+  size_t min_tracks = 0;   // with wait_site_s: and for this many tracks (tag and channel)
   std::string out;
   double at_s = -1;  // < 0: the end of the log
   double zoom = 1.0;
@@ -579,6 +582,10 @@ int render(const ips::CommonOptions& opts, const RenderOptions& ro, const MapOpt
     ips::print_fatal(kProgram, "render: --wait-site goes with --live (a LOG has its own SITE)");
     return 2;
   }
+  if (ro.min_tracks > 0 && ro.wait_site_s <= 0) {
+    ips::print_fatal(kProgram, "render: --min-tracks goes with --wait-site (its bound)");
+    return 2;
+  }
   if (!ro.force && ::access(ro.out.c_str(), F_OK) == 0) {
     ips::print_fatal(kProgram, "'" + ro.out + "' exists (--force to overwrite)");
     return 2;
@@ -604,13 +611,16 @@ int render(const ips::CommonOptions& opts, const RenderOptions& ro, const MapOpt
       return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     };
     bool waited = false;
+    // What --wait-site waits for: a SITE, and --min-tracks tracks (a loaded machine or a
+    // process starting late can take longer than --live S to show every estimate).
+    const auto ready = [&] { return model.has_site() && model.tracks().size() >= ro.min_tracks; };
     if (ro.wait_site_s > 0) {
       // A simulator or a site server repeats SITE every few seconds: listen past --live until
       // one has come, for at most --wait-site more; the timer's period bounds the overshoot.
       node.add_timer(std::min(ro.live_s, 0.05), [&] {
         const double t = listened_s();
         if (t < ro.live_s) return;
-        if (!model.has_site() && t < ro.live_s + ro.wait_site_s) {
+        if (!ready() && t < ro.live_s + ro.wait_site_s) {
           waited = true;
           return;
         }
@@ -630,7 +640,15 @@ int render(const ips::CommonOptions& opts, const RenderOptions& ro, const MapOpt
                                              ro.live_s, ro.wait_site_s));
       return 1;
     }
-    when = waited ? fmt::format("after {:.1f} s of the live bus (waited for the site)", listened)
+    if (model.tracks().size() < ro.min_tracks) {
+      ips::print_fatal(kProgram, fmt::format("{} of --min-tracks {} tracks on the map within {:.1f} s "
+                                             "(--live {:g}, --wait-site {:g}): nothing written",
+                                             model.tracks().size(), ro.min_tracks, listened,
+                                             ro.live_s, ro.wait_site_s));
+      return 1;
+    }
+    when = waited ? fmt::format("after {:.1f} s of the live bus (waited for the site{})", listened,
+                                ro.min_tracks > 0 ? " and the tracks" : "")
                   : ips::svg::format("after %g s of the live bus", ro.live_s);
   }
 
@@ -717,6 +735,11 @@ int main(int argc, char** argv) {
                          "until one does, at most this many seconds more (none by then: an "
                          "error, nothing written)")
       ->check(CLI::Range(0.0, 3600.0));
+  render_cmd->add_option("--min-tracks", ro.min_tracks,
+                         "with --wait-site: also listen on (within the same bound) until this "
+                         "many tracks, a tag on one channel each, are on the map (fewer by then: "
+                         "an error, nothing written)")
+      ->check(CLI::Range(0, 100000));
   render_cmd->add_option("--zoom", ro.zoom, "PNG: scale factor")->check(CLI::Range(0.1, 20.0))
       ->capture_default_str();
   render_cmd->add_flag("--force", ro.force, "overwrite --out when it exists");

@@ -6,8 +6,9 @@
 #  2. Debian's headless Chromium, driven through chromedriver, loads the page, waits for T1 to
 #     move on the map and in the table, checks the tables and that the tag named with markup is
 #     only text, and saves a screenshot to BUILD/test-output/viewer-live.png;
-#  3. `ips-view render --live 2 --wait-site 60` draws the bus to SVG (ips-sim repeats SITE every
-#     5 s: render listens on until one has come).
+#  3. `ips-view render --live 2 --wait-site 60 --min-tracks 6` draws the bus to SVG (ips-sim
+#     repeats SITE every 5 s, and a loaded machine can be late with an estimate: render listens on
+#     until a SITE and both tags on all 3 channels have come).
 # Every wait is for a condition (a process on HEALTH, the page's state, a SITE), bounded by 60 s.
 # Exit 77 (skipped) when no network namespace can be made here, or Chromium is not installed.
 set -euo pipefail
@@ -43,7 +44,8 @@ EOF
   fail "ips-uwb-twr or ips-view did not come up: $(cat "$WORK/view.err")"
 grep -q '^ips-view: serving http://127.0.0.1:8080/ (live bus)' "$WORK/view.err" ||
   fail "ips-view's first line: $(cat "$WORK/view.err")"
-# No SITE on the bus yet: render --wait-site gives up after its bound, writes nothing, status 1.
+# No SITE on the bus yet: render --wait-site gives up after its bound, writes nothing, status 1
+# (nothing can come: ips-sim has not started).
 rc=0
 "$BIN/ips-view" render --live 0.2 --wait-site 0.3 --out "$WORK/nosite.svg" 2>"$WORK/render.err" ||
   rc=$?
@@ -66,11 +68,22 @@ python3 "$HERE/viewer_checks.py" endpoints http://127.0.0.1:8080/ --mode live
 python3 "$HERE/viewer_checks.py" browser http://127.0.0.1:8080/ --webdriver http://127.0.0.1:9515 \
   --screenshot "$OUT/viewer-live.png" --payload "$PAYLOAD"
 
-"$BIN/ips-view" render --live 2 --wait-site 60 --out "$WORK/live.svg" 2>"$WORK/render.err" ||
-  fail "render --live: $(cat "$WORK/render.err")"
-grep -Eq 'wrote .*live.svg: site lab, .* estimates of 2 tags on 3 channels, after [0-9.]+ s of the live bus' \
+# T1 and the markup tag on TRUTH, POSE_UWB and INS_MODULE: 6 tracks.
+"$BIN/ips-view" render --live 2 --wait-site 60 --min-tracks 6 --out "$WORK/live.svg" \
+  2>"$WORK/render.err" || fail "render --live: $(cat "$WORK/render.err")"
+grep -Eq 'wrote .*live.svg: site lab, 6 estimates of 2 tags on 3 channels, after [0-9.]+ s of the live bus' \
   "$WORK/render.err" || fail "render --live summary: $(cat "$WORK/render.err")"
 grep 'wrote .*live.svg' "$WORK/render.err"
+# More tracks than the bus carries: render gives up after its bound, writes nothing, status 1 (the
+# site is the file's, so only the tracks are waited for).
+rc=0
+"$BIN/ips-view" render --site "$ROOT/config/sites/lab.yaml" --live 0.2 --wait-site 0.5 --min-tracks 7 \
+  --out "$WORK/seven.svg" 2>"$WORK/render.err" || rc=$?
+[ "$rc" -eq 1 ] && [ ! -e "$WORK/seven.svg" ] &&
+  grep -Eq '^ips-view: error: [0-6] of --min-tracks 7 tracks on the map within [0-9.]+ s \(--live 0\.2, --wait-site 0\.5\): nothing written$' \
+    "$WORK/render.err" ||
+  fail "render --min-tracks 7: status $rc: $(cat "$WORK/render.err")"
+echo "ok: $(cat "$WORK/render.err")"
 python3 - "$WORK/live.svg" "$PAYLOAD" <<'EOF'
 import sys, xml.etree.ElementTree as ET
 S = '{http://www.w3.org/2000/svg}'

@@ -145,6 +145,7 @@ expect_error_saying "cannot read log '$WORK/none.lcm'" "$BIN/ips-view" render "$
 expect_error_saying "give either a LOG or --live" "$BIN/ips-view" render "$WORK/lab.lcm" --live 1 --out "$WORK/x.svg"
 expect_error_saying "give either a LOG or --live" "$BIN/ips-view" render --out "$WORK/x.svg"
 expect_error_saying "--wait-site goes with --live" "$BIN/ips-view" render "$WORK/lab.lcm" --wait-site 5 --out "$WORK/x.svg"
+expect_error_saying "--min-tracks goes with --wait-site" "$BIN/ips-view" render --live 1 --min-tracks 2 --out "$WORK/x.svg"
 expect_error_saying "exists (--force to overwrite)" "$BIN/ips-view" render "$WORK/lab.lcm" --out "$WORK/end.svg"
 "$BIN/ips-view" render "$WORK/lab.lcm" --out "$WORK/end.svg" --force 2>/dev/null || fail "--force"
 expect_error_saying "cannot read log" "$BIN/ips-view" "$WORK/none.lcm"
