@@ -48,6 +48,7 @@ struct Options {
   double imu_hz = 100;
   double seconds = 20;
   double warmup_s = 2;
+  double drain_s = 0.5;
   std::string lcm_url;
   int cpu_pid = 0;
   int shards = 1;
@@ -144,6 +145,11 @@ int main(int argc, char** argv) {
   app.add_option("--seconds", o.seconds, "measured time")->check(CLI::Range(0.5, 3600.0));
   app.add_option("--warmup", o.warmup_s, "seconds published before measuring")
       ->check(CLI::Range(0.0, 60.0));
+  app.add_option("--drain", o.drain_s,
+                 "after the measured time, wait at most this long for the poses still missing "
+                 "(ends as soon as none is)")
+      ->check(CLI::Range(0.0, 600.0))
+      ->capture_default_str();
   app.add_option("--lcm-url", o.lcm_url, "LCM URL (default: LCM_DEFAULT_URL or LCM's)");
   app.add_option("--cpu-pid", o.cpu_pid,
                  "report the CPU time and resident memory of this process (ips-fuse)");
@@ -286,8 +292,9 @@ int main(int argc, char** argv) {
       poses = 0;
       if (o.cpu_pid) cpu0 = cpu_seconds(o.cpu_pid);
     }
-    if (now_s >= end_s) break;
-    while (streams[due.front()].next_s <= now_s) {
+    // Everything due before the end is published, even when this thread was held up past it
+    // (a loaded machine): the count published does not depend on the scheduler.
+    while (streams[due.front()].next_s <= now_s && streams[due.front()].next_s < end_s) {
       std::pop_heap(due.begin(), due.end(), later);
       Stream& s = streams[due.back()];
       {
@@ -300,7 +307,7 @@ int main(int argc, char** argv) {
           r.range_m = (tag_position(s.tag, s.next_s) - anchor_position(s.anchor, o.anchors)).norm() +
                       noise(rng);
           r.seq = s.seq++;
-          if (measuring) {
+          if (measuring && s.next_s >= o.warmup_s) {  // not one due in the warmup, published late
             const auto now = Clock::now();
             sent[{id, utime}] = now;
             sent_own[{id, utime}] = now;
@@ -323,13 +330,15 @@ int main(int argc, char** argv) {
       }
       std::push_heap(due.begin(), due.end(), later);
     }
+    if (now_s >= end_s) break;
     // Receive until the next message is due.
     const double next_due = std::min(end_s, streams[due.front()].next_s);
     receive_all(next_due - std::chrono::duration<double>(Clock::now() - start).count());
   }
-  // The last poses: half a second.
-  const auto drain_end = Clock::now() + std::chrono::milliseconds(500);
-  while (Clock::now() < drain_end) receive_all(0.05);
+  // The last poses (and the own ranges): at most --drain seconds, less once none is missing.
+  const auto drain_end = Clock::now() + std::chrono::duration_cast<Clock::duration>(
+                                            std::chrono::duration<double>(o.drain_s));
+  while (Clock::now() < drain_end && !(sent.empty() && sent_own.empty())) receive_all(0.05);
   const double measured_s =
       std::chrono::duration<double>(Clock::now() - start).count() - measure_start_s;
   const double cpu1 = o.cpu_pid ? cpu_seconds(o.cpu_pid) : 0;
