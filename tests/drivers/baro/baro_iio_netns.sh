@@ -120,18 +120,21 @@ for m in b1:
     assert m['humidity_pct'] == 45.2, m
     assert m['is_reference'] and m['known_height_m'] == 2.4, m   # from the site's baro_stations
 
-# About 10 Hz each while present.
+# About 10 Hz each while present, over the time the test really took (nominally 2.2 s: two sleeps
+# and a write, which a loaded machine stretches).
 def count(ms, a, b):
     return sum(1 for m in ms if a < m['utime'] < b)
 n = count(t1, t_start, t_remove)
-assert 17 <= n <= 25, f'T1 published {n} samples in {(t_remove - t_start) / 1e6:.1f} s'
+want = 10 * (t_remove - t_start) / 1e6
+assert 0.75 * want <= n <= want + 3, f'T1 published {n} samples in {(t_remove - t_start) / 1e6:.1f} s'
 # B1 away: T1 goes on, B1 is silent (a read begun before the move may still land after it).
 assert count(t1, t_remove, t_restore) >= 12, count(t1, t_remove, t_restore)
 assert count(b1, t_remove + 120000, t_restore) == 0, [m['utime'] for m in b1]
-assert count(b1, t_start, t_remove) >= 17, count(b1, t_start, t_remove)
-# Back within the retry period (0.2 s) and a poll.
+assert count(b1, t_start, t_remove) >= 0.75 * want, count(b1, t_start, t_remove)
+# Back within the retry period (0.2 s) and a poll, 0.3 s: under 0.9 s even on a loaded machine,
+# and sooner than the default period (1 s) would allow.
 back = [m['utime'] for m in b1 if m['utime'] > t_restore]
-assert back and back[0] - t_restore < 500000, (t_restore, back[:1])
+assert back and back[0] - t_restore < 900000, (t_restore, back[:1])
 assert len(back) >= 10, len(back)
 
 gone = f'IIO device B1 ({sysfs}/iio:device1) gone: in_pressure_raw: No such file or directory; retrying every 0.2 s'
