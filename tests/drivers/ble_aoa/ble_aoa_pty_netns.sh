@@ -91,12 +91,13 @@ for dev, want in ((dev_a, want_a), (dev_b, want_b), (dev_c, want_c)):
     assert got == want, f'{dev}:\n got  {got}\n want {want}'
 assert len(msgs) == 14, len(msgs)
 
-# Reception time: after the write, within 0.5 s.
+# Reception time: after the write, within 2 s (the host's clock on reception: a loaded machine can
+# be a fraction of a second late to read, the board's uptime would be far off).
 sent = json.load(open(f'{work}/sent.json'))
 t_sent = {(s['anchor'], s['text']): s['t_us'] for s in sent}
 first_a = next(m for m in msgs if m['seq'] == 25)
 t = t_sent[('A', '+UUDF:6C1DEBA5F60C,-68,-30,42,0,37,"6C1DEBA09862","",1606101,25')]
-assert t <= first_a['utime'] <= t + 500000, (t, first_a['utime'])
+assert t <= first_a['utime'] <= t + 2000000, (t, first_a['utime'])
 # B kept publishing while A was unplugged.
 t_unplug, t_replug = t_sent[('A', 'unplug')], t_sent[('A', 'replug')]
 during = [m for m in msgs if m['source'] == 'ips-ble-aoa:' + dev_b and t_unplug < m['utime'] < t_replug]

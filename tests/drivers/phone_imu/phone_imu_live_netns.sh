@@ -65,6 +65,7 @@ batch = {'messageId': 0, 'sessionId': 's1', 'deviceId': 'pixel-7',
              {'name': 'gyroscope', 'time': 1698501144412000000, 'values': {'x': 1}}]}
 times['h1'] = time.time_ns() // 1000
 st, body = post('/data', json.dumps(batch))
+times['h1_end'] = time.time_ns() // 1000  # answered: the driver has read the batch
 assert (st, json.loads(body)) == (200, {'status': 'ok', 'accepted': 3, 'rejected': 1}), (st, body)
 st, body = post('/data', '{"payload": [1,')
 assert st == 400 and 'not JSON' in body, (st, body)
@@ -158,20 +159,23 @@ assert u1['mag'] == [-21.66, -36.96, -28.14], u1
 # u2 has no gyroscope or magnetometer of its own; 50 ms after u1's: within the 50 ms window.
 assert u2['gyro'] == u1['gyro'] and u2['mag'] == u1['mag'], u2
 # Time mapping: the offset is the least delay so far; utime never after the reception and not
-# before the send.
+# before the send. The reception is bounded by 'handled' (the driver had read every datagram by
+# then), not by a fixed delay after the send, which a loaded machine can overrun.
 t = sent['times']
-assert t['u1'] <= u1['utime'] <= t['u1'] + 200000, (t['u1'], u1['utime'])
+assert t['u1'] <= u1['utime'] <= sent['handled'], (t['u1'], u1['utime'], sent['handled'])
 # (The phone times are 50 ms apart, the sends a little more: u2 maps to about u1 + 50 ms.)
-assert t['u1'] + 30000 <= u2['utime'] <= t['u2'] + 200000, (t, u2['utime'])
-# 50 ms apart on the phone; the offset may only have come down (a quicker reading) in between.
-assert 30000 <= u2['utime'] - u1['utime'] <= 50000, (u1['utime'], u2['utime'])
+assert t['u1'] + 30000 <= u2['utime'] <= sent['handled'], (t, u2['utime'])
+# 50 ms apart on the phone; the offset may only have come down (a quicker reading) in between,
+# by as much as u1 was late to be read.
+assert 0 < u2['utime'] - u1['utime'] <= 50000, (u1['utime'], u2['utime'])
 assert len(web) == 2, web
 w1, w2 = web
 assert w1['device_utime'] == 1698501144401773 and w2['device_utime'] == 1698501144411773
 assert w1['accel'] == [0.25, 9.75, 0.5] and w1['gyro'] == [0.01, 0.02, -0.03], w1
 assert all(math.isnan(v) for v in w1['mag']), w1
 assert w2['gyro'] == [0.01, 0.02, -0.03], w2  # the bad later gyroscope entry was skipped
-assert t['h1'] <= w2['utime'] <= t['h1'] + 500000, (t['h1'], w2['utime'])
+# w2 is 10 ms after w1 on the phone: at most that after the answer (plus slack for the mapping).
+assert t['h1'] <= w2['utime'] <= t['h1_end'] + 500000, (t['h1'], t['h1_end'], w2['utime'])
 assert w2['utime'] - w1['utime'] == 10000
 # Parse errors: 2 datagrams, 1 JSON entry, 1 JSON body, the 413. Drops: 404 and 405.
 assert last['parse_errors'] == 5, last

@@ -68,12 +68,13 @@ assert got == want, f'UWB_RANGE:\n got  {got}\n want {want}'
 for r in ranges:
     assert r['source'] == src, r['source']
     assert math.isnan(float(r['fp_power_dbm'])) and math.isnan(float(r['quality'])), r
-# Reception time: after the write, within 0.5 s; the ranges of one lec line share it.
+# Reception time: after the write, within 2 s (the host's clock on reception: a loaded machine can
+# be a fraction of a second late to read); the ranges of one lec line share it.
 sent = json.load(open(sent_path))
 t_guide = next(s['t_us'] for s in sent if s['text'].startswith('DIST,4'))
 utimes = [int(r['utime_us']) for r in ranges]
 assert len(set(utimes[:4])) == 1, utimes[:4]
-assert t_guide <= utimes[0] <= t_guide + 500000, (t_guide, utimes[0])
+assert t_guide <= utimes[0] <= t_guide + 2000000, (t_guide, utimes[0])
 poses = rows('POSE_UWB_MODULE')
 assert len(poses) == 2, poses
 for p in poses:
