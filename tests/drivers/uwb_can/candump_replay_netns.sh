@@ -5,8 +5,9 @@
 #     tag UWB_RANGE message (the lab's anchor-to-anchor survey ranges have no tag number on the
 #     CAN bus and are skipped);
 #  2. ips-uwb-can --candump-file replays it (paced, x20): the published UWB_RANGE messages equal
-#     the simulator's (count and order, tag and anchor ids, range within the 1 mm quantisation,
-#     seq modulo 256, NaN quality) and keep their times exactly;
+#     the simulator's (count by ips-uwb-can's HEALTH, order, tag and anchor ids, range within the
+#     1 mm quantisation, seq modulo 256, NaN quality) and keep their times exactly (lcm-logger
+#     may miss a few under load: at most 5 %, none out of order or different);
 #  3. `cat log | ips-uwb-can --candump-stdin`: the same messages, stamped with host time;
 #  4. the same log with bad lines mixed in (garbage, odd hex, a short frame on an anchor id, an
 #     out-of-range timestamp), another device's frame, an error frame and a DROPCOUNT line: the
@@ -75,21 +76,33 @@ got = {ch: [lcm_messages.uwb_range(d) for c, _, d in out if c == ch]
        for ch in ('UWB_RANGE_FILE', 'UWB_RANGE_STDIN', 'UWB_RANGE_BAD')}
 assert len(sim) == n_lines, (len(sim), n_lines)
 
+# What lcm-logger recorded: the simulator's ranges in order. At hundreds of ranges a second the
+# real lcm-logger (liblcm's default queue of 30 messages) misses some when a loaded machine holds
+# it up: those may be missing (at most 5 %), none may differ or be out of order. That every range
+# was published is ips-uwb-can's own count (HEALTH msgs_out, below).
 def compare(name, msgs, same_time):
-    assert len(msgs) == len(sim), f'{name}: {len(msgs)} published, {len(sim)} in the sim log'
-    for i, (a, b) in enumerate(zip(sim, msgs)):
+    assert len(sim) - len(sim) // 20 <= len(msgs) <= len(sim), \
+        f'{name}: {len(msgs)} recorded, {len(sim)} in the sim log'
+    j = 0
+    for i, b in enumerate(msgs):
+        while j < len(sim) and (sim[j]['tag_id'], sim[j]['anchor_id'], sim[j]['seq'] % 256) != \
+                (b['tag_id'], b['anchor_id'], b['seq']):
+            j += 1
+        assert j < len(sim), f'{name} #{i}: {b} is not the next of the simulator\'s ranges'
+        a = sim[j]
+        j += 1
         where = f'{name} #{i}: {a} vs {b}'
-        assert (a['tag_id'], a['anchor_id']) == (b['tag_id'], b['anchor_id']), where
         assert abs(a['range_m'] - b['range_m']) <= 0.0005 + 1e-9, where
-        assert b['seq'] == a['seq'] % 256, where
         assert math.isnan(b['quality']) and math.isnan(b['rx_power_dbm']), where
         assert b['source'] == 'ips-uwb-can:can0', where
         if same_time:
             assert b['utime'] == a['utime'], where
         else:
             assert t0 <= b['utime'] <= t1, f'{where}: not stamped with host time in [{t0}, {t1}]'
+    missed = len(sim) - len(msgs)
     print(f'ok: {name}: {len(msgs)} ranges equal to the simulator\'s'
-          + (', times preserved' if same_time else ', host times'))
+          + (', times preserved' if same_time else ', host times')
+          + (f' ({missed} missed by lcm-logger)' if missed else ''))
 
 compare('UWB_RANGE_FILE', got['UWB_RANGE_FILE'], True)
 compare('UWB_RANGE_STDIN', got['UWB_RANGE_STDIN'], False)
@@ -104,8 +117,9 @@ for h in health:
 assert len(runs) == 3, f'HEALTH from {len(runs)} ips-uwb-can runs (expected 3)'
 file_h, stdin_h, bad_h = sorted(runs.values(), key=lambda h: h['utime'])
 for name, h in (('file', file_h), ('stdin', stdin_h)):
-    assert h['msgs_out'] >= n_lines and h['parse_errors'] == 0 and h['drops'] == 0, (name, h)
+    assert h['msgs_out'] == n_lines and h['parse_errors'] == 0 and h['drops'] == 0, (name, h)
     assert h['msgs_in'] == n_lines, (name, h)
+assert bad_h['msgs_out'] == n_lines, bad_h  # every range published
 assert bad_h['parse_errors'] == 4, bad_h
 assert bad_h['drops'] == 3, bad_h
 assert bad_h['msgs_in'] == n_lines + 3, bad_h  # lines read as frames: + short, other, error
