@@ -13,7 +13,8 @@
 #     each bad one counted in HEALTH parse_errors; `cat | --file -`; and source 004's three
 #     examples with --rx-power dw1000-prf64 (the DW1000 receive levels of their diagnostics);
 # in each, the published UWB_RX equal the simulator's (anchor and sender ids, is_sync, seq,
-# rx_counter exactly, counter_hz, NaN powers) and are stamped with host time.
+# rx_counter exactly, counter_hz, NaN powers; the driver's HEALTH counts them all, lcm-logger may
+# miss a few under load) and are stamped with host time.
 # Exit 77 (skipped) when no network namespace can be made here.
 set -euo pipefail
 BIN=$(cd "$1" && pwd)
@@ -130,10 +131,22 @@ sources = {'UWB_RX_TCP': 'ips-uwb-tdoa-anchors:tcp:127.0.0.1:47001',
            'UWB_RX_UDP': 'ips-uwb-tdoa-anchors:udp:127.0.0.1:47002',
            'UWB_RX_STDIN': 'ips-uwb-tdoa-anchors:stdin'}
 
+# What lcm-logger recorded: the simulator's messages in order. At hundreds a second the real
+# lcm-logger (liblcm's default queue of 30 messages) misses some when a loaded machine holds it
+# up: those may be missing (at most 5 %), none may differ or be out of order. That every record
+# was published is the driver's own count (HEALTH msgs_out, below).
 for name, (lo, hi) in windows.items():
     got = [lcm_messages.uwb_rx(d) for c, _, d in out if c == name]
-    assert len(got) == len(sim), f'{name}: {len(got)} published, {len(sim)} in the sim log'
-    for i, (a, b) in enumerate(zip(sim, got)):
+    assert len(sim) - len(sim) // 20 <= len(got) <= len(sim), \
+        f'{name}: {len(got)} recorded, {len(sim)} in the sim log'
+    j = 0
+    for i, b in enumerate(got):
+        while j < len(sim) and (sim[j]['anchor_id'], sim[j]['sender_id'], sim[j]['rx_counter']) != \
+                (b['anchor_id'], b['sender_id'], b['rx_counter']):
+            j += 1
+        assert j < len(sim), f'{name} #{i}: {b} is not the next of the simulator\'s messages'
+        a = sim[j]
+        j += 1
         where = f'{name} #{i}: {a} vs {b}'
         for k in ('anchor_id', 'sender_id', 'is_sync', 'seq', 'rx_counter', 'counter_hz'):
             assert a[k] == b[k], f'{k}: {where}'
@@ -142,7 +155,9 @@ for name, (lo, hi) in windows.items():
         assert lo <= b['utime'] <= hi, f'{where}: not host time in [{lo}, {hi}]'
         if name in sources:
             assert b['source'] == sources[name], where
-    print(f'ok: {name}: {len(got)} messages equal to the simulator\'s, host times')
+    missed = len(sim) - len(got)
+    print(f'ok: {name}: {len(got)} messages equal to the simulator\'s, host times'
+          + (f' ({missed} missed by lcm-logger)' if missed else ''))
 
 # HEALTH of each run (by pid, in time order): TCP, UDP, file, stdin.
 runs = {}
@@ -163,13 +178,15 @@ assert last['parse_errors'] == 0 and last['drops'] == 0, last
 print(f'ok: TCP HEALTH: degraded while away ({gone[0]["last_error"]!r}), OK after, {n} in')
 last = udp[-1]
 assert last['parse_errors'] == 2 and last['msgs_in'] == n + 2 and last['drops'] == 0, last
+assert last['msgs_out'] >= n, last
 assert last['state'] == 1 and 'cc' in last['last_error'], last
 print(f'ok: UDP HEALTH: {last["parse_errors"]} parse errors ({last["last_error"]!r})')
 last = file_[-1]
-assert last['parse_errors'] == 7 and last['msgs_in'] == n + 6, last
+assert last['parse_errors'] == 7 and last['msgs_in'] == n + 6 and last['msgs_out'] >= n, last
 print(f'ok: file HEALTH: {last["parse_errors"]} parse errors ({last["last_error"]!r})')
 last = stdin[-1]
 assert last['parse_errors'] == 0 and last['msgs_in'] == n and last['state'] == 0, last
+assert last['msgs_out'] >= n, last
 
 # DW1000 user manual 4.7.2 at 64 MHz PRF on 004's examples (see anchor_report_parser_test.cpp).
 ex = [lcm_messages.uwb_rx(d) for c, _, d in out if c == 'UWB_RX_POWER']
