@@ -72,10 +72,22 @@ std::string event_text(std::string_view name, std::string_view data) {
 }  // namespace
 
 std::string stats_text(const HttpServerStats& s) {
-  return std::to_string(s.accepted) + " accepted, " + std::to_string(s.refused) +
-         " refused (no slot), " + std::to_string(s.evicted) + " evicted, " +
+  std::string t = std::to_string(s.accepted) + " accepted, " + std::to_string(s.refused) +
+         " refused (no slot), " + std::to_string(s.evicted) + " evicted (" +
+         std::to_string(s.evicted_readers) + " not reading, " + std::to_string(s.evicted_streams) +
+         " streams), " +
          std::to_string(s.header_timeouts) + " header timeouts, " +
-         std::to_string(s.request_timeouts) + " request timeouts";
+         std::to_string(s.request_timeouts) + " request timeouts, " +
+         std::to_string(s.idle_closed) + " idle closed, " + std::to_string(s.aborted) +
+         " aborted mid-request";
+  if (s.refusals.empty()) return t;
+  t += "; refusals:";
+  const char* sep = " ";
+  for (const auto& [status, n] : s.refusals) {
+    t += sep + std::to_string(status) + " x" + std::to_string(n);
+    sep = ", ";
+  }
+  return t;
 }
 
 SlotDecision decide_slot(const std::vector<SlotView>& conns, std::string_view peer,
@@ -92,11 +104,18 @@ SlotDecision decide_slot(const std::vector<SlotView>& conns, std::string_view pe
   const bool own = count(peer) >= max_per_peer;
   if (!own && conns.size() < max_total) return d;
   std::vector<size_t> order;
-  for (size_t i = 0; i < conns.size(); ++i)
-    if (conns[i].use != SlotView::Use::kBusy && (!own || conns[i].peer == peer)) order.push_back(i);
-  // The peer holding the most first, then waiting before body, then the longest waiting.
+  for (size_t i = 0; i < conns.size(); ++i) {
+    const SlotView& c = conns[i];
+    if (c.use == SlotView::Use::kBusy || (own && c.peer != peer)) continue;
+    if (c.use == SlotView::Use::kStream && !own && count(c.peer) < count(peer) + 2) continue;
+    order.push_back(i);
+  }
+  // Streams last; the peer holding the most first, then waiting before body, then the longest
+  // waiting.
   std::sort(order.begin(), order.end(), [&](size_t a, size_t b) {
     const SlotView &x = conns[a], &y = conns[b];
+    const bool sx = x.use == SlotView::Use::kStream, sy = y.use == SlotView::Use::kStream;
+    if (sx != sy) return sy;
     const size_t nx = count(x.peer), ny = count(y.peer);
     if (nx != ny) return nx > ny;
     if (x.use != y.use) return x.use < y.use;
@@ -192,7 +211,7 @@ void HttpServer::on_accept() {
       [[maybe_unused]] const ssize_t n = ::send(fd, busy.data(), busy.size(), MSG_NOSIGNAL);
       ::close(fd);
       ++stats_.refused;
-      if (callbacks_.on_refused) callbacks_.on_refused(503, why, text);
+      note_refusal(503, why, text);
       continue;
     }
     ++stats_.accepted;
@@ -208,8 +227,11 @@ void HttpServer::on_accept() {
 
 bool HttpServer::make_room(const std::string& peer, std::string& why) {
   const auto now = Clock::now();
+  // A client that has taken nothing of its response for this long is as evictable as an idle one.
+  const auto stall = std::chrono::duration<double>(options_.header_timeout_s);
   std::vector<SlotView> views;
   std::vector<ConnIt> its;
+  std::vector<bool> stalled;
   views.reserve(conns_.size());
   its.reserve(conns_.size());
   for (auto it = conns_.begin(); it != conns_.end(); ++it) {
@@ -217,7 +239,12 @@ bool HttpServer::make_room(const std::string& peer, std::string& why) {
     SlotView v;
     v.peer = c.peer;
     Clock::time_point since = c.last_activity;
-    if (c.stream_id != 0 || !c.out.empty() || c.close_after || c.dead) {
+    if (c.stream_id != 0 && !c.dead) {
+      v.use = SlotView::Use::kStream;
+      since = c.accepted;
+    } else if (c.stream_id == 0 && !c.dead && !c.out.empty() && now - c.last_activity > stall) {
+      v.use = SlotView::Use::kWaiting;  // its bytes waiting to be read are requests it pipelined
+    } else if (c.stream_id != 0 || !c.out.empty() || c.close_after || c.dead) {
       v.use = SlotView::Use::kBusy;
     } else if (c.parser.in_body()) {
       v.use = SlotView::Use::kBody;
@@ -228,9 +255,11 @@ bool HttpServer::make_room(const std::string& peer, std::string& why) {
     v.waiting_s = std::chrono::duration<double>(now - since).count();
     views.push_back(v);
     its.push_back(it);
+    stalled.push_back(c.stream_id == 0 && !c.out.empty() && v.use == SlotView::Use::kWaiting);
   }
   const SlotDecision d = decide_slot(
       views, peer, options_.max_connections, options_.max_connections_per_peer, [&](size_t i) {
+        if (stalled[i]) return false;
         int unread = 0;
         return ::ioctl(its[i]->fd, FIONREAD, &unread) == 0 && unread > 0;
       });
@@ -242,11 +271,15 @@ bool HttpServer::make_room(const std::string& peer, std::string& why) {
     const Conn& c = *its[d.evict];
     char waited[32];
     std::snprintf(waited, sizeof waited, "%.1f s", views[d.evict].waiting_s);
-    const std::string what = c.parser.in_body()       ? "its request body incomplete after "
+    const std::string what = c.stream_id != 0         ? "an event stream open for "
+                             : stalled[d.evict]       ? "its response not taken for "
+                             : c.parser.in_body()     ? "its request body incomplete after "
                              : c.parser.in_progress() ? "its request head incomplete after "
                              : !c.answered            ? "no request after "
                                                       : "idle for ";
     ++stats_.evicted;
+    if (c.stream_id != 0) ++stats_.evicted_streams;
+    else if (stalled[d.evict]) ++stats_.evicted_readers;
     // The evicted client is not told the other's address.
     cut(its[d.evict],
         "evicted (" + what + waited + ") for a new connection from " + peer + ": " + d.reason,
@@ -255,10 +288,21 @@ bool HttpServer::make_room(const std::string& peer, std::string& why) {
   return true;
 }
 
+void HttpServer::note_refusal(int status, const std::string& reason, const std::string& peer) {
+  ++stats_.refusals[status];
+  if (callbacks_.on_refused) callbacks_.on_refused(status, reason, peer);
+}
+
 void HttpServer::cut(ConnIt it, const std::string& why, const std::string& told) {
   Conn& c = *it;
-  if (callbacks_.on_refused) callbacks_.on_refused(408, why, c.peer);
-  c.out += http_response(408, "application/json", error_body(told.empty() ? why : told), false);
+  note_refusal(408, why, c.peer);
+  if (c.stream_id != 0) {  // its head was sent: a comment (ignored by EventSource) says why
+    std::string line = told.empty() ? why : told;
+    std::replace(line.begin(), line.end(), '\n', ' ');
+    c.out += ": closed: " + line + "\n\n";
+  } else if (c.out.empty()) {  // else in the middle of a response (not taken): only closed
+    c.out += http_response(408, "application/json", error_body(told.empty() ? why : told), false);
+  }
   flush(c);
   close_soon(it);
 }
@@ -359,7 +403,10 @@ bool HttpServer::serve(ConnIt it) {
     if (reads++ == kMaxReadsPerEvent) break;
     char buf[kReadChunk];
     const ssize_t n = ::recv(c.fd, buf, sizeof buf, 0);
-    if (n == 0 || (n < 0 && !would_block(errno))) return false;
+    if (n == 0 || (n < 0 && !would_block(errno))) {
+      if (c.parser.in_progress() || c.in_used < c.in.size()) ++stats_.aborted;
+      return false;
+    }
     if (n < 0) break;
     c.in.assign(buf, static_cast<size_t>(n));
     c.in_used = 0;
@@ -374,7 +421,7 @@ bool HttpServer::serve(ConnIt it) {
 
 void HttpServer::refuse(Conn& c, int status, const std::string& reason, bool keep_alive,
                         std::string_view extra_headers) {
-  if (callbacks_.on_refused) callbacks_.on_refused(status, reason, c.peer);
+  note_refusal(status, reason, c.peer);
   c.out += http_response(status, "application/json", error_body(reason), keep_alive, extra_headers);
   if (!keep_alive) c.close_after = true;
 }
@@ -479,7 +526,7 @@ void HttpServer::open_stream(ConnIt it, const std::string& path, const Route& ro
     const std::string why = "event stream " + path + ": opening failed: " + printable(e.what());
     const std::string peer = c.peer;
     close_soon(it);
-    if (callbacks_.on_refused) callbacks_.on_refused(500, why, peer);
+    note_refusal(500, why, peer);
   }
 }
 
@@ -492,7 +539,7 @@ bool HttpServer::queue_event(ConnIt it, std::string_view text) {
     const std::string why = "event stream " + c.stream_path + " fell behind by " +
                             std::to_string(c.out.size()) + " bytes";
     close_soon(it);
-    if (callbacks_.on_refused) callbacks_.on_refused(503, why, peer);
+    note_refusal(503, why, peer);
     return false;
   }
   c.out += text;

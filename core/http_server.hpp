@@ -23,10 +23,15 @@
 //    slot of an idle or unfinished connection (evicted with a 408): of the peer holding the most
 //    connections, one idle or whose head is incomplete before one whose body is arriving, the
 //    longest waiting first. One whose bytes are waiting to be read is not evicted, nor one being
-//    answered, nor an event stream: only when none is left is the new connection refused (503).
+//    answered, unless its client has taken nothing of the response for header_timeout_s (a slow
+//    reader: then it counts as idle, and is closed without a 408). An event stream is evicted
+//    only when no idle or unfinished connection is left, and only one of the new connection's
+//    own address or of an address holding at least two connections more than it (so a few
+//    addresses opening streams and never reading them cannot hold every slot, while one page
+//    per address keeps its stream); only when none is left is the new connection refused (503).
 // So a flood from a few addresses churns through its own slots; a client from another address
 // gets a slot at once (one sharing its address, e.g. behind the same NAT, shares its fate).
-// stats() counts what was refused, evicted and timed out.
+// stats() counts what was refused (by status), evicted, timed out and aborted by the client.
 //
 // An event stream holds at most max_stream_backlog_bytes of events its client has not
 // taken, plus one event: an event sent when that much is waiting closes the stream instead
@@ -69,11 +74,20 @@ struct HttpServerStats {
   int64_t accepted = 0;
   int64_t refused = 0;           // 503 at once: no slot free and none that could be freed
   int64_t evicted = 0;           // idle or unfinished, closed (408) to give a new one its slot
+  int64_t evicted_readers = 0;   // of evicted: its client took nothing of a response (slow reader)
+  int64_t evicted_streams = 0;   // of evicted: an event stream
   int64_t header_timeouts = 0;   // no whole request head within header_timeout_s (408)
   int64_t request_timeouts = 0;  // no whole request within request_timeout_s (408)
   int64_t idle_closed = 0;       // kept alive and silent for idle_timeout_s
+  int64_t aborted = 0;           // closed or reset by the client with a request begun
+  // Every refusal, by status (what Callbacks::on_refused is told): a request refused before
+  // reaching a handler (400, 404, 405, 411, 413, 417, 431, 501, 505), a handler that threw
+  // (500), a connection cut (408) or given no slot (503), an event stream that fell behind (503).
+  std::map<int, int64_t> refusals;
 };
-// "N accepted, N refused (no slot), N evicted, N header timeouts, N request timeouts".
+// "N accepted, N refused (no slot), N evicted (N not reading, N streams), N header timeouts, N
+// request timeouts, N idle closed, N aborted mid-request; refusals: 400 xN, 408 xN, ..." (the
+// last part when any).
 std::string stats_text(const HttpServerStats& s);
 
 // The slot policy (pure, for testing): what it knows of each open connection.
@@ -81,12 +95,13 @@ struct SlotView {
   enum class Use {
     kWaiting,  // idle between requests, or nothing / part of a head received: evictable first
     kBody,     // head complete, body arriving: evictable after every kWaiting of its peer
-    kBusy,     // being answered, or an event stream: never evicted
+    kBusy,     // being answered: never evicted
+    kStream,   // an event stream: evicted last, and only from a peer holding 2 more (see above)
   };
   std::string_view peer;
   Use use = Use::kWaiting;
   double waiting_s = 0;  // kWaiting, kBody: for how long (since the last response or accept,
-                         // or since the request's first byte)
+                         // or since the request's first byte); kStream: since the accept
 };
 struct SlotDecision {
   static constexpr size_t kNone = static_cast<size_t>(-1);
@@ -176,6 +191,8 @@ class HttpServer {
   using ConnIt = std::list<Conn>::iterator;
 
   void on_accept();
+  // Counts a refusal (stats().refusals) and tells Callbacks::on_refused.
+  void note_refusal(int status, const std::string& reason, const std::string& peer);
   // A slot for a new connection from `peer` (evicting one if need be); false: refuse it.
   bool make_room(const std::string& peer, std::string& why);
   // 408, best effort, then closed: `why` for on_refused, `told` (or `why`) to the client.

@@ -415,8 +415,20 @@ int serve(ips::CommonOptions opts, const ServeOptions& so, const MapOptions& mo)
     const http::HttpServerStats& hs = server.stats();
     j += ",\"http_connections\":{\"accepted\":" + std::to_string(hs.accepted) +
          ",\"refused\":" + std::to_string(hs.refused) + ",\"evicted\":" +
-         std::to_string(hs.evicted) + ",\"header_timeouts\":" + std::to_string(hs.header_timeouts) +
-         ",\"request_timeouts\":" + std::to_string(hs.request_timeouts) + "}";
+         std::to_string(hs.evicted) +
+         ",\"evicted_readers\":" + std::to_string(hs.evicted_readers) +
+         ",\"evicted_streams\":" + std::to_string(hs.evicted_streams) +
+         ",\"header_timeouts\":" + std::to_string(hs.header_timeouts) +
+         ",\"request_timeouts\":" + std::to_string(hs.request_timeouts) +
+         ",\"idle_closed\":" + std::to_string(hs.idle_closed) +
+         ",\"aborted\":" + std::to_string(hs.aborted) + "}";
+    j += ",\"http_refusals\":{";  // by status
+    const char* sep = "";
+    for (const auto& [status, n] : hs.refusals) {
+      j += sep + ("\"" + std::to_string(status) + "\":") + std::to_string(n);
+      sep = ",";
+    }
+    j += "}";
     j += ",\"streams_dropped\":" + std::to_string(server.streams_dropped());
     j += ",\"update_ms\":{\"count\":" + std::to_string(cost.count) +
          ",\"last\":" + ips::view::json_number(cost.last_ms) +
@@ -561,7 +573,9 @@ int serve(ips::CommonOptions opts, const ServeOptions& so, const MapOptions& mo)
                  "%s: warning: listening on %s: anyone who can reach this machine can see the "
                  "page (there is no login)\n",
                  kProgram, so.bind.c_str());
-  return node.run();
+  const int rc = node.run();
+  spdlog::info("{}: HTTP connections: {}", kProgram, http::stats_text(server.stats()));
+  return rc;
 }
 
 bool ends_with(const std::string& s, const std::string& suffix) {

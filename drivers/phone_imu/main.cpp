@@ -230,6 +230,8 @@ int run_live(const ips::CommonOptions& opts, Settings& s) {
                  http->bound_port(), s.http_path);
   }
   const int rc = node.run();
+  if (http)  // every refusal and cut, by status: what HEALTH counts as drops and parse errors
+    spdlog::info("{}: HTTP connections: {}", kProgram, ips::http::stats_text(http->stats()));
   http.reset();
   udp.reset();
   return rc;

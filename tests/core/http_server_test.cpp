@@ -559,7 +559,44 @@ TEST(DecideSlot, StatsText) {
   s.header_timeouts = 3;
   s.request_timeouts = 4;
   EXPECT_EQ(stats_text(s),
-            "7 accepted, 1 refused (no slot), 2 evicted, 3 header timeouts, 4 request timeouts");
+            "7 accepted, 1 refused (no slot), 2 evicted (0 not reading, 0 streams), 3 header "
+            "timeouts, 4 request timeouts, 0 idle closed, 0 aborted mid-request");
+  s.evicted_readers = 1;
+  s.evicted_streams = 1;
+  s.idle_closed = 5;
+  s.aborted = 6;
+  s.refusals = {{408, 5}, {400, 2}, {503, 1}};
+  EXPECT_EQ(stats_text(s),
+            "7 accepted, 1 refused (no slot), 2 evicted (1 not reading, 1 streams), 3 header "
+            "timeouts, 4 request timeouts, 5 idle closed, 6 aborted mid-request; refusals: 400 x2, "
+            "408 x5, 503 x1");
+}
+
+TEST(DecideSlot, StreamsGoLastAndOnlyFromAPeerHoldingTwoMore) {
+  // 10.0.0.1 holds three streams, 10.0.0.2 one stream and one idle connection.
+  const std::vector<SlotView> conns = {{"10.0.0.1", Use::kStream, 9},
+                                       {"10.0.0.1", Use::kStream, 5},
+                                       {"10.0.0.2", Use::kStream, 20},
+                                       {"10.0.0.1", Use::kStream, 7},
+                                       {"10.0.0.2", Use::kWaiting, 1}};
+  // The idle one first, whoever holds the most.
+  EXPECT_EQ(decide_slot(conns, "10.0.0.3", 5, 5).evict, 4u);
+  // Then the longest open stream of the peer holding the most.
+  const std::vector<SlotView> streams(conns.begin(), conns.end() - 1);
+  const SlotDecision d = decide_slot(streams, "10.0.0.3", 4, 4);
+  EXPECT_TRUE(d.admit);
+  EXPECT_EQ(d.evict, 0u);
+  // Not from a peer holding fewer than two more than the new one's: one page per address
+  // keeps its stream, and the new one is refused.
+  const std::vector<SlotView> pages = {{"10.0.0.1", Use::kStream, 9},
+                                       {"10.0.0.2", Use::kStream, 5}};
+  EXPECT_FALSE(decide_slot(pages, "10.0.0.3", 2, 2).admit);
+  const std::vector<SlotView> two = {{"10.0.0.1", Use::kStream, 9},
+                                     {"10.0.0.1", Use::kStream, 5},
+                                     {"10.0.0.3", Use::kWaiting, 1}};
+  EXPECT_EQ(decide_slot(two, "10.0.0.3", 3, 3, [](size_t i) { return i == 2; }).admit, false);
+  // A peer at its own limit takes its own longest open stream (a page reloaded).
+  EXPECT_EQ(decide_slot(pages, "10.0.0.1", 8, 1).evict, 0u);
 }
 
 // --- slots on sockets ----------------------------------------------------------------------------
