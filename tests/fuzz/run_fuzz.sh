@@ -1,13 +1,20 @@
 #!/usr/bin/env bash
-# run_fuzz.sh FUZZER SEED_DIR SECONDS: runs a libFuzzer target for a bounded time on a scratch
-# corpus seeded from SEED_DIR (the source tree is never written). Fails on any finding.
+# run_fuzz.sh FUZZER SEED_DIR SECONDS [INPUT_DIR...]: runs a libFuzzer target for a bounded time on
+# a scratch corpus, reading SEED_DIR and every further INPUT_DIR that exists (e.g. the kept corpus
+# tests/fuzz/corpus/<name>) as read-only inputs: libFuzzer writes only to its first directory, the
+# scratch one, so the source tree is never written. Fails on any finding.
 set -uo pipefail
 fuzzer=$1 seeds=$2 seconds=$3
+shift 3
+inputs=("$seeds")
+for dir in "$@"; do
+  [ -d "$dir" ] && inputs+=("$dir")
+done
 corpus=$(mktemp -d)
 artifacts=$(mktemp -d)
 trap 'rm -rf "$corpus"' EXIT
 "$fuzzer" -max_total_time="$seconds" -rss_limit_mb=2048 -timeout=10 -print_final_stats=1 \
-  -artifact_prefix="$artifacts/" "$corpus" "$seeds" >"$artifacts/fuzz.log" 2>&1
+  -artifact_prefix="$artifacts/" "$corpus" "${inputs[@]}" >"$artifacts/fuzz.log" 2>&1
 status=$?
 if [ "$status" -ne 0 ]; then
   # The cause first (a CI log keeps only the end of the output), then the input that found it.
