@@ -32,8 +32,12 @@ import time
 IP_BIND_ADDRESS_NO_PORT = getattr(socket, 'IP_BIND_ADDRESS_NO_PORT', 24)
 
 
-def connect_from(source, port):
+def connect_from(source, port, rcvbuf=None):
+    """A non-blocking connection from `source` (with a receive buffer of `rcvbuf` bytes when
+    given: a client slow to read fills it sooner), or None when connect fails at once."""
     s = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+    if rcvbuf is not None:
+        s.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, rcvbuf)
     s.setsockopt(socket.SOL_IP, IP_BIND_ADDRESS_NO_PORT, 1)
     s.bind((source, 0))
     s.setblocking(False)

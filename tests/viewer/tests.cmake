@@ -22,6 +22,14 @@ add_test(NAME view_http_starve_netns
                  ${CMAKE_RUNTIME_OUTPUT_DIRECTORY})
 set_tests_properties(view_http_starve_netns PROPERTIES LABELS integration TIMEOUT 240
                                                        SKIP_RETURN_CODE 77 RESOURCE_LOCK cpu_heavy)
+# ips-view under abuse (issue 26): a 1000-connection flood, oversized and malformed requests,
+# resets, 48 clients that never read (pipelined pages, event streams); 20 page loads within 1 s,
+# peak RSS under 64 MiB, the refusals counted by status (log, /api/info, HEALTH).
+add_test(NAME view_http_abuse_netns
+         COMMAND ${CMAKE_CURRENT_SOURCE_DIR}/viewer/view_http_abuse_netns.sh
+                 ${CMAKE_RUNTIME_OUTPUT_DIRECTORY})
+set_tests_properties(view_http_abuse_netns PROPERTIES LABELS integration TIMEOUT 300
+                                                      SKIP_RETURN_CODE 77 RESOURCE_LOCK cpu_heavy)
 
 # ips-view as the lab's console (issue 24): a log written by view_console_log (two floors with
 # plans, zones, zone events, alerts) played to Debian's headless Chromium through chromedriver:

@@ -57,3 +57,12 @@ add_test(NAME phone_imu_http_starve_netns
                  ${CMAKE_RUNTIME_OUTPUT_DIRECTORY})
 set_tests_properties(phone_imu_http_starve_netns PROPERTIES LABELS integration TIMEOUT 240
                                                             SKIP_RETURN_CODE 77 RESOURCE_LOCK cpu_heavy)
+
+# The HTTP input under abuse (issue 26): a 1000-connection flood, oversized and malformed
+# requests, resets, pipelining clients that never read; 20 uploads within 1 s and 28 on the bus,
+# peak RSS under 32 MiB, the refusals counted by status (log, HEALTH).
+add_test(NAME phone_imu_http_abuse_netns
+         COMMAND ${CMAKE_CURRENT_SOURCE_DIR}/drivers/phone_imu/phone_imu_http_abuse_netns.sh
+                 ${CMAKE_RUNTIME_OUTPUT_DIRECTORY})
+set_tests_properties(phone_imu_http_abuse_netns PROPERTIES LABELS integration TIMEOUT 300
+                                                           SKIP_RETURN_CODE 77 RESOURCE_LOCK cpu_heavy)
