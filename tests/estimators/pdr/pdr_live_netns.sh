@@ -18,6 +18,9 @@ source "$ROOT/tests/integration/live_test_lib.sh"
 
 "$BIN/ips-bus-check" --timeout 30 || fail "multicast does not loop back inside the namespace"
 lcm-logger -q -f "$WORK/live.lcm" & logger=$!; pids+=($logger)
+# The logger is subscribed before ips-pdr starts: it records every SITE_REQUEST ips-pdr sends
+# (its first comes at once), which the count of what ips-pdr published below takes out.
+logger_sync "$WORK/live.lcm"
 "$BIN/ips-pdr" --log-level warn & pdr=$!; pids+=($pdr)
 "$BIN/ips-bus-check" --wait-for ips-pdr --timeout 60 || fail "ips-pdr did not come up"
 logger_sync "$WORK/live.lcm"
