@@ -26,7 +26,7 @@ http_starve.py (whose probe times genuine requests meanwhile).
   client that takes nothing of its response after its header timeout); the abuse goes on until
   SIGTERM, then the counts go to --stats (JSON) and it exits 0; after --max-s: exit 1.
   Counts: flood {opened, closed_by_server, connect_failed, statuses {code: n}}; cases {name:
-  {sent, expect, statuses {code: n}, no_reply, mismatched}}; slow {opened, sent_bytes, ...}.
+  {sent, expect, statuses {code: n}, no_reply, unfinished (at SIGTERM), mismatched}}; slow {opened, sent_bytes, ...}.
 
   http_abuse.py check STATS SERVER_LOG [--handler-case NAME] [--out FILE]
     Reads the last "HTTP connections: ..." line of the server's log (core/http_server's
@@ -148,7 +148,7 @@ def run(a):
     all_cases = cases(a)
     for name, data, expect, reset in all_cases:
         st['cases'][name] = {'sent': 0, 'expect': expect, 'statuses': {}, 'no_reply': 0,
-                             'mismatched': 0}
+                             'unfinished': 0, 'mismatched': 0}
     case_rounds = 0
     cases_done = 0
     case_tokens = 0.0
@@ -164,7 +164,7 @@ def run(a):
         ev = selectors.EVENT_READ | (selectors.EVENT_WRITE if c.out else 0)
         sel.register(c.sock, ev)
 
-    def finish(c, closed_by_server):
+    def finish(c, closed_by_server, at_stop=False):
         nonlocal running_cases, cases_done
         sel.unregister(c.sock)
         del conns[c.sock]
@@ -183,7 +183,7 @@ def run(a):
             for s in codes:
                 bump(cs['statuses'], s)
             if not codes:
-                cs['no_reply'] += 1
+                cs['unfinished' if at_stop else 'no_reply'] += 1
             elif cs['expect'] is not None and codes[-1] != cs['expect'] and \
                     codes[-1] not in (408, 503):
                 cs['mismatched'] += 1
@@ -323,10 +323,7 @@ def run(a):
                   time.monotonic() - c.start > 30]:
             finish(c, False)
     for c in list(conns.values()):
-        if c.kind == 'case':  # still running: neither answered nor not
-            st['cases'][c.case]['sent'] -= 1
-            st['cases'][c.case]['no_reply'] -= 1
-        finish(c, False)
+        finish(c, False, at_stop=True)
     st['slow']['held_to_the_end'] = len(slow_held)
     for c in slow_held:
         c.sock.close()

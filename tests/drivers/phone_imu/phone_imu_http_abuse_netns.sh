@@ -6,7 +6,9 @@
 # oversized case (1 MiB header line, 99999999999 and 2 MiB bodies, a body of exactly 1 MiB that
 # is not JSON, garbage, NUL bytes, HTTP/0.9, HTTP/2.0, bad Content-Length, chunked junk, pipelined
 # junk, resets mid-head and mid-body; 5 rounds, then 20 a second) from 127.0.0.30-37, and keeps
-# 8 slow readers (127.0.0.40-41: 400 pipelined requests each, never read, 4 KiB receive buffer).
+# 8 slow readers (127.0.0.40-41: 400 pipelined requests each, never read, 4 KiB receive buffer;
+# the server answers one at a time, and its 405s are small enough for the kernel's buffers, so
+# they end up idle and evicted: the eviction of a client not reading is shown by ips-view's test).
 # Meanwhile 20 Sensor Logger uploads from 127.0.0.1 each get their 200 within 1 s, and after
 # the abuse 5 more; all 3 + 20 + 5 reach the bus as IMU messages. The process stays up, its peak
 # RSS (VmHWM) stays under 32 MiB (measured 8 MiB; 192 MiB for a sanitizer build), and the
