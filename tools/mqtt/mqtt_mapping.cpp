@@ -1,6 +1,7 @@
 #include "tools/mqtt/mqtt_mapping.hpp"
 
 #include <cmath>
+#include <cstdio>
 #include <ctime>
 #include <nlohmann/json.hpp>
 
@@ -82,7 +83,17 @@ std::string topic_level(std::string_view id) {
       i += n;
     }
   }
-  return out;
+  if (out.size() <= kMaxTopicLevel) return out;
+  // An id off the bus may be any length: a long one is cut (at a character's start, so the level
+  // stays UTF-8) and marked with a hash of the whole id, so that two long ids keep two topics.
+  uint32_t hash = 2166136261u;  // FNV-1a
+  for (const char c : id) hash = (hash ^ static_cast<unsigned char>(c)) * 16777619u;
+  size_t cut = kMaxTopicLevel - 9;
+  while (cut > 0 && (static_cast<unsigned char>(out[cut]) & 0xc0) == 0x80) --cut;
+  char mark[10];
+  std::snprintf(mark, sizeof mark, "~%08x", hash);
+  out.resize(cut);
+  return out + mark;
 }
 
 std::string check_topic_prefix(std::string_view prefix) {

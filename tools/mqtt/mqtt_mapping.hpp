@@ -19,7 +19,10 @@ namespace ips::mqtt {
 // One MQTT topic level from an id off the bus (tag, process, site name): '+', '#' and '/' (MQTT
 // wildcards and the level separator), control characters, DEL and bytes that are not valid UTF-8
 // (a topic must be UTF-8, MQTT 3.1.1 section 1.5.3) each become '_'; an empty id becomes "_".
+// A level longer than kMaxTopicLevel bytes is cut to fit, ending in '~' and 8 hex digits of a
+// hash of the whole id (topics stay within check_topic_prefix's 1000 bytes, long ids apart).
 // The payload always carries the id as published.
+inline constexpr size_t kMaxTopicLevel = 200;
 std::string topic_level(std::string_view id);
 
 // Checks --topic-prefix: one or more levels separated by '/', none empty, no '+' or '#', not

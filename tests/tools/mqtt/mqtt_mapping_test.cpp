@@ -51,6 +51,28 @@ TEST(MqttTopicLevel, WildcardsSeparatorsControlAndBadUtf8BecomeUnderscores) {
   EXPECT_EQ(topic_level("a b$c"), "a b$c");                        // legal in a level
 }
 
+// Found by fuzz_mqtt_mapping (seed tests/fuzz/seeds/mqtt_mapping/long-id): an id of 997 bytes made
+// a topic check_topic_prefix refused (longer than 1000 bytes); an id off the bus may be any length.
+TEST(MqttTopicLevel, LongIdsAreCutToFitAndKeptApartByAHash) {
+  const std::string fits(kMaxTopicLevel, 'a');
+  EXPECT_EQ(topic_level(fits), fits);
+  const std::string level = topic_level(std::string(997, 'a'));
+  ASSERT_EQ(level.size(), kMaxTopicLevel);
+  EXPECT_EQ(level.substr(0, kMaxTopicLevel - 9), std::string(kMaxTopicLevel - 9, 'a'));
+  EXPECT_EQ(level[kMaxTopicLevel - 9], '~');
+  EXPECT_EQ(level.find_first_not_of("0123456789abcdef", kMaxTopicLevel - 8), std::string::npos);
+  EXPECT_EQ(check_topic_prefix("ips/" + level), "");
+  EXPECT_NE(topic_level(std::string(997, 'a') + "b"), topic_level(std::string(997, 'a') + "c"));
+  std::string accents;  // é is 2 bytes: the cut must not split one
+  for (int i = 0; i < 150; ++i) accents += "\xc3\xa9";
+  const std::string cut = topic_level(accents);
+  EXPECT_LE(cut.size(), kMaxTopicLevel);
+  EXPECT_EQ(check_topic_prefix(cut), "");
+  const std::string huge(70000, '/');
+  EXPECT_EQ(check_topic_prefix(pose_topic("ips", huge, huge)), "");
+  EXPECT_EQ(check_topic_prefix(health_topic("ips", huge, huge)), "");
+}
+
 TEST(MqttTopicPrefix, LevelsWithoutWildcardsOrEmptyOnes) {
   EXPECT_EQ(check_topic_prefix("ips"), "");
   EXPECT_EQ(check_topic_prefix("acme/site-3/ips"), "");
