@@ -22,9 +22,9 @@ BIN=$(cd "$1" && pwd)
 HERE=$(cd "$(dirname "$0")" && pwd)
 ROOT=$(cd "$HERE/../.." && pwd)
 source "$ROOT/tests/integration/live_test_lib.sh"
+source "$ROOT/tests/integration/http_abuse_lib.sh"
 ulimit -n 4096 2>/dev/null || true
 STARVE="$ROOT/tests/integration/http_starve.py"
-ABUSE="$ROOT/tests/integration/http_abuse.py"
 PORT=47105
 MAX_RSS_KIB=$((64 * 1024))
 if grep -qa __asan_init "$BIN/ips-view"; then MAX_RSS_KIB=$((256 * 1024)); fi
@@ -41,31 +41,18 @@ probe() {
 }
 quiet=$(probe --count 3 --every 0.05 --require) || fail "page loads without abuse: $quiet"
 
-python3 "$ABUSE" attack $PORT --get /view.js --post / --stream /events --body-limit 4096 \
+abuse_start $view ips-view $PORT --get /view.js --post / --stream /events --body-limit 4096 \
   --body-limit-status 405 --rounds 5 --slow-readers 48 \
-  --slow-from 127.0.0.40,127.0.0.41,127.0.0.42,127.0.0.43,127.0.0.44,127.0.0.45 \
-  --settle-s 3 --ready "$WORK/ready" --stats "$WORK/abuse.json" & atk=$!
-pids+=($atk)
-for ((i = 0; i < 2400; i++)); do
-  [ -s "$WORK/ready" ] && break
-  kill -0 $atk 2>/dev/null || fail "the abuse generator exited early"
-  sleep 0.05
-done
-[ -s "$WORK/ready" ] || fail "the abuse did not get going within 120 s"
-kill -0 $view 2>/dev/null || fail "ips-view died under abuse: $(tail -5 "$WORK/view.err")"
+  --slow-from 127.0.0.40,127.0.0.41,127.0.0.42,127.0.0.43,127.0.0.44,127.0.0.45 --settle-s 3
 attacked=$(probe --count 20 --every 0.2 --deadline 1.0 --require --out "$WORK/probe.json") ||
   fail "page loads under abuse: $attacked; $(tail -3 "$WORK/view.err")"
-kill -TERM $atk
-wait $atk || fail "the abuse generator failed"
-forget $atk
-ended=$(date +%s%6N)
-kill -0 $view 2>/dev/null || fail "ips-view died under abuse: $(tail -5 "$WORK/view.err")"
+abuse_stop $view ips-view
 after=$(probe --count 5 --every 0.05 --deadline 1.0 --require) || fail "page loads after: $after"
 python3 - $PORT >"$WORK/info.json" <<'PY' || fail "GET /api/info after the abuse"
 import sys, urllib.request
 print(urllib.request.urlopen(f'http://127.0.0.1:{sys.argv[1]}/api/info', timeout=10).read().decode())
 PY
-hwm=$(awk '/^VmHWM:/ {print $2}' /proc/$view/status)
+hwm=$(peak_rss_kib $view)
 
 python3 "$HERE/../drivers/health_wait.py" "$WORK/bus.lcm" --source ips-view --after "$ended" ||
   fail "no HEALTH after the abuse"
@@ -73,8 +60,7 @@ stop $view ips-view
 logger_sync "$WORK/bus.lcm"
 stop $logger lcm-logger
 [ "$hwm" -lt "$MAX_RSS_KIB" ] || fail "peak RSS ${hwm} KiB, over ${MAX_RSS_KIB} KiB"
-python3 "$ABUSE" check "$WORK/abuse.json" "$WORK/view.err" --out "$WORK/check.json" >/dev/null ||
-  fail "the refusals counted: $(cat "$WORK/check.json")"
+abuse_check "$WORK/view.err"
 python3 - "$WORK" "$hwm" "$ended" <<'PY' || fail "the counts in /api/info and HEALTH"
 import json, sys
 from lcm_log import events
