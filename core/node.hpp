@@ -126,6 +126,10 @@ class Node {
   // STATE_DEGRADED, and returns to STATE_OK once no error has been reported for
   // degraded_hold_s (last_error keeps the text). A state set with set_state() is kept as set.
   void report_error(const std::string& text);
+  // last_error's text without a degradation: a condition that is over, said for the record
+  // (ips-record resumed after a full disk: what the pause cost stays readable; the pause itself
+  // was the error).
+  void set_last_error(const std::string& text) { last_error_ = text; }
   // A condition that lasts, named by `key` (a device away: its path): the text becomes
   // last_error and is logged, and a process otherwise in STATE_OK is STATE_DEGRADED while any
   // such condition is on, however long, whatever set_state() says.
@@ -149,7 +153,8 @@ class Node {
   }
   // An estimator's innovation check for HEALTH's `consistency` (core/consistency.hpp).
   void set_consistency(std::string text) { consistency_ = std::move(text); }
-  // How long a reported error keeps the process degraded (60 s; tests shorten it).
+  // How long a reported error keeps the process degraded (3 s: a transient fault shows in a few
+  // HEALTH reports, and a process is OK again soon after it ends; docs/reliability.md).
   void set_degraded_hold(double seconds) { degraded_hold_s_ = seconds; }
   void publish_health();
 
@@ -202,7 +207,7 @@ class Node {
   std::set<std::string> lasting_;  // report_lasting_error() keys not ended yet
   std::map<std::string, std::string> notes_;  // report_note() by key
   std::chrono::steady_clock::time_point last_error_at_;
-  double degraded_hold_s_ = 60.0;
+  double degraded_hold_s_ = 3.0;
   std::string health_channel_;
   std::string host_;
   std::chrono::steady_clock::time_point start_time_;

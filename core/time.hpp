@@ -32,4 +32,12 @@ inline utime_t wall_utime_now() {
       .count();
 }
 
+// The host's monotonic clock in us (from an arbitrary origin): for how long something took or
+// how long ago it was, which a step of the wall clock (NTP, by hand) must not change.
+inline utime_t monotonic_utime_now() {
+  return std::chrono::duration_cast<std::chrono::microseconds>(
+             std::chrono::steady_clock::now().time_since_epoch())
+      .count();
+}
+
 }  // namespace ips

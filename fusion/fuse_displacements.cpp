@@ -90,7 +90,7 @@ void FuseEstimator::on_dead_reckoning(const pose_t& m, DisplacementSource src, u
     // Its first position starts the track when nothing else has (001: the module starts where
     // the walk does); after a gap, only a track that never had a fix of the site's frame.
     if (!t->initialised && (!t->ever_started || !t->absolute_seen))
-      start(m.tag_id, *t, m.utime, p, params_.start_sigma_m);
+      start(m.tag_id, *t, m.utime, p, params_.start_sigma_m, true);
     return;
   }
   Measurement d;
@@ -103,7 +103,7 @@ void FuseEstimator::on_dead_reckoning(const pose_t& m, DisplacementSource src, u
   t->last_dr_t = m.utime;
   t->last_dr_position = p;
   if (t->initialised) add(m.tag_id, *t, std::move(d));
-  else if (!t->ever_started || !t->absolute_seen) start(m.tag_id, *t, m.utime, p, params_.start_sigma_m);
+  else if (!t->ever_started || !t->absolute_seen) start(m.tag_id, *t, m.utime, p, params_.start_sigma_m, true);
 }
 
 void FuseEstimator::on_ins_module(const pose_t& m) {

@@ -135,6 +135,10 @@ bool FuseEstimator::planar_for(const std::string& tag_id) const {
 }
 
 void FuseEstimator::maybe_publish(const std::string& tag_id, Track& t) {
+  // A start from a prior that the first absolute measurement gated: not published until one
+  // agrees with it or enough refute it (count_absolute), so that no estimate says 0.3 m around a
+  // position metres off.
+  if (t.state.prior_only && t.state.rejections > 0) return;
   if (!t.tally.due(t.state.t, params_.publish_period_s)) return;
   const FuseFilter& f = t.state.filter;
   pose_t p;
@@ -178,7 +182,8 @@ DropReasons FuseEstimator::drop_reasons() const {
   d.add(DropReason::kInvalid, s.dropped_invalid);
   d.add(DropReason::kNoReference, s.dropped_relative_height);
   d.add(DropReason::kUnknownAnchor, s.dropped_unknown_anchor);
-  d.add(DropReason::kLate, s.dropped_late);
+  d.add(DropReason::kLate, s.dropped_late + s.dropped_imu_late);
+  d.add(DropReason::kDuplicate, s.dropped_imu_repeated);
   d.add(DropReason::kTimeJump, guard_.dropped());
   d.add(DropReason::kTooManyTags, s.dropped_too_many_tags);
   d.add(DropReason::kSuperseded, s.poses_superseded);

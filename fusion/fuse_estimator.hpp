@@ -126,6 +126,8 @@ struct FuseStats {
   int64_t dropped_relative_height = 0;  // ALTITUDE relative to a lone barometer's start
   int64_t dropped_unknown_anchor = 0;
   int64_t dropped_late = 0;          // more than max_delay_s behind the tag's newest
+  int64_t dropped_imu_repeated = 0;  // an IMU sample at the time of the previous one (a duplicate)
+  int64_t dropped_imu_late = 0;      // an IMU sample before the previous one (reordered)
   int64_t dropped_no_site = 0;
   int64_t dropped_too_many_tags = 0;
   // Displacements of a tag's other dead-reckoning sources (one is used per tag: the first heard,
@@ -137,6 +139,7 @@ struct FuseStats {
   int64_t initialisations = 0;
   int64_t hosted_starts = 0;  // of those, from the hosted TDoA/AoA trackers (blinks or angles only)
   int64_t restarts = 0;
+  int64_t prior_refuted = 0;  // starts from a prior that the first absolute measurements refuted
   int64_t gap_restarts = 0;  // tracks started afresh after more than max_gap_s without input
   int64_t poses_out = 0;
 };
@@ -239,6 +242,10 @@ class FuseEstimator {
     FuseFilter filter;
     utime_t last_absolute = 0;
     int rejections = 0;
+    // Started from a prior (the site's start pose, a dead-reckoning position) and no absolute
+    // measurement taken since: what the first ones say decides whether the prior holds.
+    bool prior_only = false;
+    bool prior_refuted = false;  // ... and the first ones refuted it (count_absolute)
   };
   struct Track {
     bool initialised = false;
@@ -294,8 +301,9 @@ class FuseEstimator {
   // The pairs' range offsets: set up from the site on the tag's first range, then learned from
   // each epoch of ranges as ips-uwb-twr does (r: a range less the configured bias only).
   void learn_offsets(Track& t, const Measurement& r);
+  // `prior`: p is a prior (the site's start pose, a dead-reckoning position), not a fix.
   void start(const std::string& tag_id, Track& t, utime_t time, const Eigen::Vector3d& p,
-             double sigma_m);
+             double sigma_m, bool prior = false);
   void try_start_from_ranges(const std::string& tag_id, Track& t);
   // Moves the snapshot's filter to time `to`, through the displacements of the history.
   void predict(const Track& t, Snapshot& s, utime_t to) const;

@@ -12,6 +12,12 @@ void FuseEstimator::on_imu(const imu_t& m) {
   if (!t) return;
   const Eigen::Vector3d gyro(m.gyro[0], m.gyro[1], m.gyro[2]);
   const Eigen::Vector3d accel(m.accel[0], m.accel[1], m.accel[2]);
+  // A sample at or before the previous one is a duplicate or reordered on the way (a lossy LAN
+  // repeats and reorders datagrams), not invalid.
+  if (const utime_t newest = t->gyro.newest(); newest != 0 && m.utime <= newest) {
+    ++(m.utime == newest ? stats_.dropped_imu_repeated : stats_.dropped_imu_late);
+    return;
+  }
   if (!t->gyro.add(m.utime, gyro, accel)) {
     ++stats_.dropped_invalid;
     return;

@@ -47,6 +47,11 @@ void FuseEstimator::add(const std::string& tag_id, Track& t, Measurement m) {
     }
     t.state = s;
   }
+  if (t.state.prior_refuted) {  // the track is started afresh from the measurements to come
+    ++stats_.prior_refuted;
+    restart_track(tag_id);
+    return;
+  }
   // Forget what no late message can reach any more (keeping the base to roll back to).
   while (t.history.size() > 1 &&
          (t.history.front().t < t.newest - window || t.history.size() > kMaxHistory)) {

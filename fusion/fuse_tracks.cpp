@@ -82,14 +82,14 @@ FuseEstimator::Track* FuseEstimator::find_or_add_track(const std::string& tag_id
     if (tag && tag->has_start()) {
       Eigen::Vector3d p = tag->start_position;
       if (!std::isfinite(p.z())) p.z() = std::isfinite(tag->height_m) ? tag->height_m : 0.0;
-      start(tag_id, track, t, p, params_.start_sigma_m);
+      start(tag_id, track, t, p, params_.start_sigma_m, true);
     }
   }
   return &track;
 }
 
 void FuseEstimator::start(const std::string& tag_id, Track& t, utime_t time,
-                          const Eigen::Vector3d& p, double sigma_m) {
+                          const Eigen::Vector3d& p, double sigma_m, bool prior) {
   FuseFilter f;
   f.planar = planar_for(tag_id);
   f.x.head<3>() = p;
@@ -108,7 +108,7 @@ void FuseEstimator::start(const std::string& tag_id, Track& t, utime_t time,
   if (t.initialised) ++stats_.restarts;
   t.initialised = true;
   t.ever_started = true;
-  t.state = Snapshot{time, time, f, time, 0};
+  t.state = Snapshot{time, time, f, time, 0, prior};
   t.base = t.state;
   t.history.clear();
   t.snapshots.clear();
@@ -160,10 +160,19 @@ void FuseEstimator::try_start_from_ranges(const std::string& tag_id, Track& t) {
 }
 
 void FuseEstimator::count_absolute(Snapshot& s, utime_t t, bool accepted, bool live) {
+  // A start from a prior that the first absolute measurements gate, kPriorRefuted in a row: the
+  // tag is not where the prior says (a process restarted mid-walk takes the site's start pose, or
+  // a module's dead-reckoning position, for where the tag is now). add() then starts the track
+  // afresh from the measurements (as a tag without a prior starts), instead of a start sigma
+  // around a position metres off, widened step by step.
+  constexpr int kPriorRefuted = 4;
   if (accepted) {
     s.last_absolute = t;
     s.rejections = 0;
-  } else if (++s.rejections >= params_.reinit_after_rejections) {
+    s.prior_only = false;
+  } else if (++s.rejections >= kPriorRefuted && s.prior_only) {
+    s.prior_refuted = true;
+  } else if (s.rejections >= params_.reinit_after_rejections) {
     // Gated again and again: the track has lost the tag. Widen it so that the ranges are taken
     // again (a re-acquisition, not a jump past the gate of one range).
     FuseFilter& f = s.filter;

@@ -48,7 +48,7 @@ int main(int argc, char** argv) {
     // Inputs that were not fused, by reason, in HEALTH (drops, last_error) once a second.
     ips::DropHealth drop_health;
     ips::ConsistencyHealth consistency_health;
-    int64_t gap_restarts = 0;
+    int64_t gap_restarts = 0, prior_refuted = 0;
     node.add_timer(1.0, [&] {
       drop_health.report(node, est.drop_reasons());
       consistency_health.report(node, est.consistency());
@@ -57,6 +57,14 @@ int main(int argc, char** argv) {
       if (est.stats().gap_restarts > gap_restarts) {
         gap_restarts = est.stats().gap_restarts;
         node.report_error(est.last_gap());
+      }
+      // A start from the site's start pose or a dead-reckoning position that the first ranges or
+      // angles refuted (this process started mid-walk): its estimates were off until then.
+      if (est.stats().prior_refuted > prior_refuted) {
+        prior_refuted = est.stats().prior_refuted;
+        node.report_error(std::to_string(prior_refuted) +
+                          " track start(s) from a prior (the site's start pose or a "
+                          "dead-reckoning position) refuted by the first measurements; started afresh");
       }
     });
     node.subscribe<ips::uwb_range_t>(opts.channel(ips::channel::kUwbRange),
@@ -73,7 +81,8 @@ int main(int argc, char** argv) {
                                       if (tag_filter.pass(m.tag_id)) est.on_pair(m);
                                     });
     // An advertisement's angles are fused when its epoch closes: at the next event, or when the
-    // bus has been quiet for the epoch window (message time estimated from the host clock).
+    // bus has been quiet for the epoch window (message time estimated from the host's monotonic
+    // clock, which a step of the wall clock does not move).
     ips::utime_t last_aoa_utime = 0, last_aoa_host = 0;
     node.subscribe<ips::ble_aoa_t>(opts.channel(ips::channel::kBleAoa),
                                    [&](const ips::ble_aoa_t& m, const std::string&) {
@@ -82,12 +91,12 @@ int main(int argc, char** argv) {
                                      // The newest time taken (a stamp far ahead is not).
                                      if (est.newest_angle_utime() != last_aoa_utime) {
                                        last_aoa_utime = est.newest_angle_utime();
-                                       last_aoa_host = ips::wall_utime_now();
+                                       last_aoa_host = ips::monotonic_utime_now();
                                      }
                                    });
     node.add_timer(0.02, [&] {
       if (last_aoa_utime != 0)
-        est.flush_angles(last_aoa_utime + (ips::wall_utime_now() - last_aoa_host));
+        est.flush_angles(last_aoa_utime + (ips::monotonic_utime_now() - last_aoa_host));
     });
     node.subscribe<ips::imu_t>(opts.channel(ips::channel::kImu),
                                [&](const ips::imu_t& m, const std::string&) {

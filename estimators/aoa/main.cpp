@@ -59,7 +59,7 @@ int main(int argc, char** argv) {
           // The newest time the estimator took (a stamp far ahead is not taken: time_guard.hpp).
           if (est.newest_event_utime() != last_event_utime) {
             last_event_utime = est.newest_event_utime();
-            last_event_host = ips::wall_utime_now();
+            last_event_host = ips::monotonic_utime_now();
           }
         });
     // Events that gave no pose, by reason, in HEALTH once a second; gated angles and multipath
@@ -73,7 +73,7 @@ int main(int argc, char** argv) {
     });
     node.add_timer(0.02, [&] {
       if (last_event_utime != 0)
-        est.flush(last_event_utime + (ips::wall_utime_now() - last_event_host));
+        est.flush(last_event_utime + (ips::monotonic_utime_now() - last_event_host));
     });
     return node.run();
   });

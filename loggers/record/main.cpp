@@ -185,7 +185,7 @@ int main(int argc, char** argv) {
         spdlog::warn("{}: {}", kProgram, text);
         node.end_lasting_error("disk");
         node.set_state(ips::health_t::STATE_OK);
-        node.report_error(text);
+        node.set_last_error(text);  // recording again: OK, the losses counted and said
       }
       if (!s.sidecar_error.empty() && s.sidecar_error != sidecar_warned)
         spdlog::warn("{}: {}", kProgram, s.sidecar_error);

@@ -209,6 +209,34 @@ TEST(FuseEstimator, StartsFromRangesWithoutDeadReckoningAndFromTheSitesStartPose
   }
 }
 
+// Issue 26's soak: ips-fuse restarted mid-walk takes the site's start pose for where the tag is,
+// metres off. The first ranges refute it: nothing is published meanwhile, and the track starts
+// afresh from the ranges, instead of a start sigma of 0.3 m around a position 4 m off for a
+// second or more. A start pose that holds is kept.
+TEST(FuseEstimator, AStartPoseTheFirstRangesRefuteGivesWayToTheRanges) {
+  for (const bool holds : {false, true}) {
+    std::vector<pose_t> out;
+    FuseEstimator est([&](const pose_t& p) { out.push_back(p); });
+    const Site site = site_with(holds ? "{id: T1, height_m: 0.1, start_position: [0, 0]}"
+                                      : "{id: T1, height_m: 0.1, start_position: [3, 3]}");
+    est.set_site(site);
+    for (const auto& i : inputs(site, 2.5, 0.0, 0.0, 1))  // standing at the origin
+      if (i.kind == 0) feed(est, i);
+    ASSERT_TRUE(est.filter("T1"));
+    EXPECT_EQ(est.stats().prior_refuted, holds ? 0 : 1);
+    EXPECT_LT(est.filter("T1")->x.head<2>().norm(), 0.05);
+    ASSERT_FALSE(out.empty());
+    // No estimate claims more than it knows: each is within 3 sigma of the truth (the origin).
+    for (const pose_t& p : out) {
+      const double err = std::hypot(p.position[0], p.position[1]);
+      const double sigma = std::sqrt(std::max(p.position_cov[0], p.position_cov[4]));
+      if (!holds && err > 0.5) {
+        EXPECT_LT(err, 3.0 * sigma) << "at " << p.utime - kT0 << " us";
+      }
+    }
+  }
+}
+
 // Issue 22: a range whose rx - first-path power exceeds nlos_power_db (APS006: > 10 dB likely
 // NLOS) pulls the estimate less and is counted; estimators.uwb_twr's setting is the default, 0
 // turns it off. The standing tag at the origin gets one range 0.3 m long from A1.

@@ -233,6 +233,19 @@ TEST(FuseEstimatorRx, BlinksBeforeASiteAreCountedAndPoseTdoaIsSupersededOnlyOnce
   est.on_imu(imu);
   EXPECT_EQ(est.stats().dropped_invalid, 1);
   EXPECT_EQ(est.stats().imu_used, 0);
+  // A sample repeated (a LAN's duplicate) or older than the newest (reordered) is not invalid.
+  imu.gyro[2] = 0.1;
+  imu.accel[2] = 9.81;
+  est.on_imu(imu);
+  EXPECT_EQ(est.stats().imu_used, 1);
+  est.on_imu(imu);
+  imu.utime -= 10000;
+  est.on_imu(imu);
+  EXPECT_EQ(est.stats().imu_used, 1);
+  EXPECT_EQ(est.stats().dropped_invalid, 1);
+  EXPECT_EQ(est.stats().dropped_imu_repeated, 1);
+  EXPECT_EQ(est.stats().dropped_imu_late, 1);
+  EXPECT_EQ(est.drop_reasons().count(DropReason::kDuplicate), 1);
 }
 
 }  // namespace
