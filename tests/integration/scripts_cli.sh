@@ -31,7 +31,7 @@ for p in build-essential cmake ninja-build liblcm-dev liblcm-bin libeigen3-dev l
   grep -qx "$p" "$WORK/demo.txt" || fail "install-deps: demo lacks $p"
 done
 # The test suite's heavy tools stay out of the demo's set (they are most of a fresh install).
-for p in chromium chromium-driver clang default-jdk-headless xvfb stress-ng; do
+for p in chromium chromium-driver clang default-jdk-headless xvfb stress-ng faketime; do
   grep -qx "$p" "$WORK/demo.txt" && fail "install-deps: demo installs the test tool $p"
   grep -qx "$p" "$WORK/all.txt" || fail "install-deps: all lacks $p"
 done
