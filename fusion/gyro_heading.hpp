@@ -16,10 +16,10 @@ namespace ips::fusion {
 
 class GyroHeading {
  public:
-  // Returns false (sample not used) when it is not after the previous one, not finite, or beyond
-  // any MEMS IMU's range (2000 deg/s, 16 g).
   // The time of the newest sample taken, 0 before the first.
   utime_t newest() const { return series_.empty() ? 0 : series_.back().t; }
+  // Returns false (sample not used) when it is not after the previous one, not finite, or beyond
+  // any MEMS IMU's range (2000 deg/s, 16 g).
   bool add(utime_t t, const Eigen::Vector3d& gyro_rad_s, const Eigen::Vector3d& accel_mps2) {
     if (!gyro_rad_s.allFinite() || !accel_mps2.allFinite() ||
         gyro_rad_s.cwiseAbs().maxCoeff() > kMaxRateRadS ||

@@ -38,7 +38,7 @@ import lcm_messages  # noqa: E402
 GROUP, PORT = '239.255.76.67', 7667
 URL = f'udpm://{GROUP}:{PORT}?ttl=1&recv_buf_size=4194304'
 FAKETIME_LIB = '/usr/lib/x86_64-linux-gnu/faketime/libfaketime.so.1'
-STATE_OK, STATE_DEGRADED, STATE_ERROR, STATE_STARTING = 0, 1, 2, 3
+STATE_OK = 0
 STATE_NAMES = {0: 'ok', 1: 'degraded', 2: 'error', 3: 'starting'}
 SANITIZER = re.compile(r'AddressSanitizer|LeakSanitizer|UndefinedBehaviorSanitizer|runtime error:'
                        r'|ThreadSanitizer')
@@ -162,8 +162,6 @@ class Evidence:
         self.fused = {}    # tag -> [(utime, x, y, t_s)]
         self.first = {}    # channel -> data
         self.counts = {}   # channel -> messages
-        self.times = {}    # channel -> [t_s] of selected channels
-        self.load_seqs = []
 
     def poll(self):
         try:
@@ -173,17 +171,13 @@ class Evidence:
                 self.offset = f.tell()
         except FileNotFoundError:
             return
-        i, data = 0, self.buf
-        while i + 28 <= len(data):
-            magic, _, ts, cl, dl = struct.unpack('>IqqII', data[i:i + 28])
-            if magic != lcm_log.MAGIC:
-                raise RuntimeError(f'evidence log damaged at byte {self.offset - len(data) + i}')
-            if i + 28 + cl + dl > len(data):
-                break
-            ch = data[i + 28:i + 28 + cl].decode('latin-1')
-            self.add(ch, ts / 1e6, data[i + 28 + cl:i + 28 + cl + dl])
-            i += 28 + cl + dl
-        self.buf = data[i:]
+        events, n = lcm_log.parse(self.buf)
+        for ch, ts, payload in events:
+            self.add(ch, ts / 1e6, payload)
+        self.buf = self.buf[n:]
+        # What is left is an event still being written, never a damaged one.
+        if len(self.buf) >= 4 and struct.unpack('>I', self.buf[:4])[0] != lcm_log.MAGIC:
+            raise RuntimeError(f'evidence log damaged at byte {self.offset - len(self.buf)}')
 
     def add(self, ch, t, payload):
         self.counts[ch] = self.counts.get(ch, 0) + 1
@@ -199,9 +193,6 @@ class Evidence:
                 p = lcm_messages.pose(payload)
                 self.fused.setdefault(p['tag_id'], []).append(
                     (p['utime'], *p['position'][:2], t))
-            elif ch in ('SOAK_SERIAL_RANGE', 'SOAK_TDOA_RX', 'POSE_UWB', 'POSE_AOA',
-                        'ZONE_EVENT'):
-                self.times.setdefault(ch, []).append(t)
         except (struct.error, IndexError):
             pass  # the soak's own malformed packets, recorded as they came
 
@@ -215,11 +206,11 @@ class Evidence:
 
 class Lab:
     def __init__(self, args, profile, work):
-        self.args, self.profile, self.work = args, profile, work
+        self.profile, self.work = profile, work
         self.bin = args.bin
         self.ns = f'soak{os.getpid() % 100000}'
         self.children = []  # (name, Popen)
-        self.hosts = ['sensors', 'compute', 'recorder']
+        self.hosts = list(HOSTS)
         self.deploy = {}
         self.disk = os.path.join(work, 'disk')
         self.records = os.path.join(work, 'records.txt')
@@ -659,10 +650,10 @@ class Run:
 
     def stop(self):
         lab = self.lab
-        for host in ('sensors', 'compute', 'recorder'):
+        for host in HOSTS:
             p = lab.deploy[host]
             p.send_signal(signal.SIGINT)
-        for host in ('sensors', 'compute', 'recorder'):
+        for host in HOSTS:
             try:
                 lab.deploy[host].wait(30)
             except subprocess.TimeoutExpired:
@@ -813,21 +804,20 @@ class Report:
         return lost
 
     def check_crashes(self):
-        for host in ('sensors', 'compute', 'recorder'):
+        failed_before = len(self.fail)
+        for host in HOSTS:
             text = open(os.path.join(self.run.work, f'deploy-{host}.out'), errors='replace').read()
             for m in re.finditer(r'(\S+) exited with signal \d+ \((\w+)\)', text):
                 if m.group(2) not in ('SIGKILL', 'SIGTERM', 'SIGINT'):
                     self.fail.append(f'{host}: {m.group(1)} crashed ({m.group(2)})')
-            if SANITIZER.search(text):
-                line = SANITIZER.search(text)
+            if report := SANITIZER.search(text):
                 self.fail.append(f'{host}: a sanitizer report: '
-                                 f'{text[line.start():line.start() + 200]!r}')
-            # Signals the soak did not send: exits other than our SIGKILL/SIGTERM faults.
+                                 f'{text[report.start():report.start() + 200]!r}')
+            # A process that ends by itself ends with 0 (SIGTERM, SIGINT); anything else failed.
             for m in re.finditer(r'(\S+) exited with status (\d+)', text):
                 if m.group(2) not in ('0',):
                     self.fail.append(f'{host}: {m.group(1)} exited with status {m.group(2)}')
-        log('crashes: ' + ('none' if not any('crash' in x or 'sanitizer' in x or 'exited' in x
-                                             for x in self.fail) else 'see FAIL lines'))
+        log('crashes: ' + ('none' if len(self.fail) == failed_before else 'see FAIL lines'))
 
     def check_recorder(self):
         disk = self.run.lab.disk
@@ -878,9 +868,9 @@ class Report:
     def check_loss(self):
         sw = json.load(open(os.path.join(self.run.work, 'switch.json')))['ports']
         self.loss = {'switch': sw}
-        on_purpose = {h: sw[f'port-{h}']['lost'] for h in ('sensors', 'compute', 'recorder')}
+        on_purpose = {h: sw[f'port-{h}']['lost'] for h in HOSTS}
         unwanted = {h: sw[f'port-{h}']['queue_full'] + sw[f'port-{h}']['send_failed']
-                    for h in ('sensors', 'compute', 'recorder')}
+                    for h in HOSTS}
         log(f'switch: copies lost on purpose per egress port {on_purpose}; '
             f'dropped otherwise {unwanted}')
         # What the processes counted: the last HEALTH of each pid, summed per program.

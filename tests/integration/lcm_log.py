@@ -6,10 +6,9 @@ import struct
 MAGIC = 0xEDA1DA01
 
 
-def events(path):
-    """(channel, timestamp, data) for every complete event from the start; stops at the first
-    damaged or cut event. Returns (events, bytes_read, file_size)."""
-    data = open(path, 'rb').read()
+def parse(data):
+    """(channel, timestamp, data) for every complete event of DATA from its start; stops at the
+    first damaged or cut event. Returns (events, bytes_read)."""
     out, i = [], 0
     while i + 28 <= len(data):
         magic, _, ts, cl, dl = struct.unpack('>IqqII', data[i:i + 28])
@@ -18,6 +17,13 @@ def events(path):
         out.append((data[i + 28:i + 28 + cl].decode('latin-1'), ts,
                     data[i + 28 + cl:i + 28 + cl + dl]))
         i += 28 + cl + dl
+    return out, i
+
+
+def events(path):
+    """parse() of the file at PATH. Returns (events, bytes_read, file_size)."""
+    data = open(path, 'rb').read()
+    out, i = parse(data)
     return out, i, len(data)
 
 
