@@ -141,6 +141,9 @@ struct FuseStats {
   int64_t restarts = 0;
   int64_t prior_refuted = 0;  // starts from a prior that the first absolute measurements refuted
   int64_t gap_restarts = 0;  // tracks started afresh after more than max_gap_s without input
+  // Running tracks restarted at a fix of their ranges, which agreed among themselves on a place
+  // the track was not while it gated them (check_against_ranges).
+  int64_t lost_restarts = 0;
   int64_t poses_out = 0;
 };
 
@@ -184,6 +187,8 @@ class FuseEstimator {
   std::string run_notes() const;
   // The last restart after a gap, in words ("T1: 9.6 s without input, ..."); "" before one.
   const std::string& last_gap() const { return last_gap_; }
+  // The last track restarted at its ranges' fix (lost_restarts), as "T1: track 5.2 m from ...".
+  const std::string& last_lost() const { return last_lost_; }
   // Time plausibility of the inputs, per tag (core/time_guard.hpp).
   const TimeGuardStats& time_stats() const { return guard_.stats(); }
   // The newest time of the angles taken (0 before the first): ips-fuse's epoch flush runs from it.
@@ -260,8 +265,13 @@ class FuseEstimator {
     utime_t last_dr_t = 0;
     uint32_t dr_bit = 0;              // the dead-reckoning source's bit, once one moved the track
     Eigen::Vector3d last_dr_position = Eigen::Vector3d::Zero();
-    std::deque<Measurement> init_ranges;  // waiting for a multilateration start
+    // The last ranges: a multilateration start is waited for from them, and a running track
+    // checked against them.
+    std::deque<Measurement> init_ranges;
     utime_t waiting_since = 0;            // the first range of the wait (0: not waiting)
+    int gated_since_check = 0;            // ranges gated since the last check_against_ranges
+    utime_t last_lost_check = 0;
+    int lost_checks = 0;                  // checks in a row that found the track far off
     // The radios' per-pair range offsets, learned as ips-uwb-twr does (uwb_twr/models/
     // range_bias.hpp) from the last epoch's ranges (value: less the configured bias only).
     uwb_twr::PairOffsets offsets;
@@ -305,6 +315,17 @@ class FuseEstimator {
   void start(const std::string& tag_id, Track& t, utime_t time, const Eigen::Vector3d& p,
              double sigma_m, bool prior = false);
   void try_start_from_ranges(const std::string& tag_id, Track& t);
+  struct RangeFix {
+    utime_t t = 0;
+    Eigen::Vector3d position = Eigen::Vector3d::Zero();
+    double sigma_m = 0;
+    bool checked = false;  // a spare range checked the fix's residual
+  };
+  // A multilateration of the last epoch_window_s of the track's ranges, with a start's rules
+  // (a spare range while first waiting and on a running track; the residual checked).
+  std::optional<RangeFix> fix_from_ranges(const std::string& tag_id, Track& t);
+  // A running track that gates ranges which agree on a place far from it is restarted there.
+  void check_against_ranges(const std::string& tag_id, Track& t);
   // Moves the snapshot's filter to time `to`, through the displacements of the history.
   void predict(const Track& t, Snapshot& s, utime_t to) const;
   // Moves the snapshot to the measurement's time and fuses it (fuse_history.cpp) with its model,
@@ -351,6 +372,7 @@ class FuseEstimator {
   int64_t tdoa_reanchors_back_ = 0, aoa_reanchors_back_ = 0;  // the hosted guards', seen
   FuseStats stats_;
   std::string last_gap_;
+  std::string last_lost_;
   // Per tag and ignored dead-reckoning source: the source used instead when it was first ignored
   // (the note), and how many were ignored.
   struct IgnoredSource {

@@ -46,14 +46,15 @@ void FuseEstimator::on_range(const uwb_range_t& m) {
   learn_offsets(*t, r);
   // The pair's offset off before use: the gate judges what is left (an antenna delay is not NLOS).
   r.value -= t->offsets.offset_m(static_cast<size_t>(r.anchor));
+  t->init_ranges.push_back(r);
+  if (t->init_ranges.size() > 64) t->init_ranges.pop_front();
   if (!t->initialised) {
-    t->init_ranges.push_back(r);
-    if (t->init_ranges.size() > 64) t->init_ranges.pop_front();
     try_start_from_ranges(m.tag_id, *t);
     if (!t->initialised) ++stats_.waiting_start;
     return;
   }
   add(m.tag_id, *t, std::move(r));
+  if (t->initialised) check_against_ranges(m.tag_id, *t);
 }
 
 void FuseEstimator::learn_offsets(Track& t, const Measurement& r) {
@@ -111,6 +112,7 @@ void FuseEstimator::apply_range(Track& t, Snapshot& s, const Measurement& m, boo
     consistency_.add_scalar("RANGE", anchor_id, utime_to_s(m.t), u.innovation_m, u.hph, r_cfg,
                             !u.accepted, range_setting_);
     (u.accepted ? stats_.ranges_used : stats_.ranges_rejected)++;
+    if (!u.accepted) ++t.gated_since_check;
     if (u.accepted && m.nlos_p > 0.5) ++stats_.ranges_nlos_power;
     if (u.accepted) {
       t.tally.add(u.innovation_m);

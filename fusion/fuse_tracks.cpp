@@ -7,6 +7,9 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <map>
+#include <optional>
+#include <vector>
 
 #include "core/geometry.hpp"
 #include "core/multilateration.hpp"
@@ -119,7 +122,9 @@ void FuseEstimator::start(const std::string& tag_id, Track& t, utime_t time,
   ++stats_.initialisations;
 }
 
-void FuseEstimator::try_start_from_ranges(const std::string& tag_id, Track& t) {
+std::optional<FuseEstimator::RangeFix> FuseEstimator::fix_from_ranges(const std::string& tag_id,
+                                                                     Track& t) {
+  if (t.init_ranges.empty()) return std::nullopt;
   const utime_t newest = t.init_ranges.back().t;
   while (!t.init_ranges.empty() &&
          t.init_ranges.front().t < newest - s_to_utime(params_.epoch_window_s))
@@ -132,14 +137,15 @@ void FuseEstimator::try_start_from_ranges(const std::string& tag_id, Track& t) {
   // As ips-uwb-twr: for the first second of waiting (and two epochs) one range more than a fix
   // needs, where the site has it, so that one NLOS range shows in the residual and is left out;
   // from the bare minimum nothing tells a 1.3 m long range, and the start would be that far off
-  // with the geometry's small sigma.
+  // with the geometry's small sigma. A running track's check (check_against_ranges) always
+  // needs the spare range.
   if (t.waiting_since == 0) t.waiting_since = t.init_ranges.front().t;
   int required = needed, enabled_uwb_anchors = 0;
   for (const auto& a : site_->anchors) enabled_uwb_anchors += a.enabled && a.kind == "uwb";
-  if (newest - t.waiting_since <
-      std::max<utime_t>(1'000'000, 2 * s_to_utime(params_.epoch_window_s)))
+  if (t.initialised || newest - t.waiting_since <
+                           std::max<utime_t>(1'000'000, 2 * s_to_utime(params_.epoch_window_s)))
     required = std::min(needed + 1, enabled_uwb_anchors);
-  if (static_cast<int>(latest.size()) < std::max(needed, required)) return;
+  if (static_cast<int>(latest.size()) < std::max(needed, required)) return std::nullopt;
   std::vector<RangeObservation> obs;
   for (const auto& [a, r] : latest) obs.push_back({site_->anchors[static_cast<size_t>(a)].position, r});
   MultilaterationOptions o;
@@ -148,15 +154,63 @@ void FuseEstimator::try_start_from_ranges(const std::string& tag_id, Track& t) {
   const double max_residual = 3.0 * params_.range_sigma_m + 0.2;
   const MultilaterationResult fix =
       multilaterate_dropping_one(obs, o, MultilaterationSolver::kLevenbergMarquardt, max_residual);
-  if (!fix.ok) return;
+  if (!fix.ok) return std::nullopt;
   // The residual left (a consistent set still has some) widens the start as the noise does; a
   // start no spare range could check may hold an NLOS range of a metre or more.
-  double sigma = std::max(params_.range_sigma_m,
-                          std::sqrt(std::max(0.0, fix.covariance_unit.trace())) *
-                              std::max(params_.range_sigma_m, fix.residual_rms_m));
-  if (static_cast<int>(obs.size()) <= needed)
-    sigma = std::max(sigma, uwb_twr::kUncheckedStartSigmaM);
-  start(tag_id, t, newest, fix.position, sigma);
+  RangeFix out;
+  out.t = newest;
+  out.position = fix.position;
+  out.checked = static_cast<int>(obs.size()) > needed;
+  out.sigma_m = std::max(params_.range_sigma_m,
+                         std::sqrt(std::max(0.0, fix.covariance_unit.trace())) *
+                             std::max(params_.range_sigma_m, fix.residual_rms_m));
+  if (!out.checked) out.sigma_m = std::max(out.sigma_m, uwb_twr::kUncheckedStartSigmaM);
+  return out;
+}
+
+void FuseEstimator::try_start_from_ranges(const std::string& tag_id, Track& t) {
+  if (const auto fix = fix_from_ranges(tag_id, t))
+    start(tag_id, t, fix->t, fix->position, fix->sigma_m);
+}
+
+void FuseEstimator::check_against_ranges(const std::string& tag_id, Track& t) {
+  // A running track that gates ranges while the ranges agree among themselves on a place the
+  // track is not has lost the tag: it was started from a prior that one lucky range seemed to
+  // confirm, or the tag jumped (a simulator or a tag restarted, a wrong hosted fix), and the
+  // gate keeps the ranges that would bring it back out. Widening step by step (count_absolute)
+  // takes seconds of confident estimates metres off. So, at most every kLostCheckS while some
+  // ranges are gated: a multilateration of the last epoch's ranges (with a spare range, its
+  // residual checked as a start's is); kLostChecks of them in a row far outside the track's and
+  // the fix's uncertainty, and the track starts afresh at the fix (`lost_restarts`, HEALTH).
+  constexpr double kLostCheckS = 0.2;
+  constexpr int kLostChecks = 3;
+  constexpr double kChi2 = 13.8;      // 2 degrees of freedom, 99.9 %
+  constexpr double kMinJumpM = 1.0;   // never for less: ranges of a moving tag spread that much
+  if (t.gated_since_check == 0 || t.init_ranges.empty() ||
+      t.init_ranges.back().t - t.last_lost_check < s_to_utime(kLostCheckS))
+    return;
+  t.last_lost_check = t.init_ranges.back().t;
+  t.gated_since_check = 0;
+  const auto fix = fix_from_ranges(tag_id, t);
+  if (!fix || !fix->checked) {
+    t.lost_checks = 0;
+    return;
+  }
+  const FuseFilter& f = t.state.filter;
+  const Eigen::Vector2d d = (fix->position - f.x.head<3>()).head<2>();
+  const double var = f.P.topLeftCorner<2, 2>().trace() + 2.0 * fix->sigma_m * fix->sigma_m;
+  if (d.norm() < kMinJumpM || d.squaredNorm() < kChi2 * var) {
+    t.lost_checks = 0;
+    return;
+  }
+  if (++t.lost_checks < kLostChecks) return;
+  ++stats_.lost_restarts;
+  char text[200];
+  std::snprintf(text, sizeof text,
+                "track %.1f m from where its ranges agree the tag is, gating them: restarted there",
+                d.norm());
+  last_lost_ = printable(tag_id) + ": " + text;
+  start(tag_id, t, fix->t, fix->position, fix->sigma_m);  // its next pose flagged REINITIALISED
 }
 
 void FuseEstimator::count_absolute(Snapshot& s, utime_t t, bool accepted, bool live) {

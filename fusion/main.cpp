@@ -48,7 +48,7 @@ int main(int argc, char** argv) {
     // Inputs that were not fused, by reason, in HEALTH (drops, last_error) once a second.
     ips::DropHealth drop_health;
     ips::ConsistencyHealth consistency_health;
-    int64_t gap_restarts = 0, prior_refuted = 0;
+    int64_t gap_restarts = 0, prior_refuted = 0, lost_restarts = 0;
     node.add_timer(1.0, [&] {
       drop_health.report(node, est.drop_reasons());
       consistency_health.report(node, est.consistency());
@@ -65,6 +65,12 @@ int main(int argc, char** argv) {
         node.report_error(std::to_string(prior_refuted) +
                           " track start(s) from a prior (the site's start pose or a "
                           "dead-reckoning position) refuted by the first measurements; started afresh");
+      }
+      // A running track that had lost its tag (gating ranges that agreed on another place):
+      // its estimates were off until then.
+      if (est.stats().lost_restarts > lost_restarts) {
+        lost_restarts = est.stats().lost_restarts;
+        node.report_error(est.last_lost());
       }
     });
     node.subscribe<ips::uwb_range_t>(opts.channel(ips::channel::kUwbRange),
