@@ -8,6 +8,7 @@
 #include "core/channels.hpp"
 #include "core/cli.hpp"
 #include "core/drop_reasons.hpp"
+#include "core/message_clock.hpp"
 #include "core/node.hpp"
 #include "core/site_source.hpp"
 #include "core/tag_filter.hpp"
@@ -89,20 +90,16 @@ int main(int argc, char** argv) {
     // An advertisement's angles are fused when its epoch closes: at the next event, or when the
     // bus has been quiet for the epoch window (message time estimated from the host's monotonic
     // clock, which a step of the wall clock does not move).
-    ips::utime_t last_aoa_utime = 0, last_aoa_host = 0;
+    ips::MessageClock angle_clock;
     node.subscribe<ips::ble_aoa_t>(opts.channel(ips::channel::kBleAoa),
                                    [&](const ips::ble_aoa_t& m, const std::string&) {
                                      if (!tag_filter.pass(m.tag_id)) return;
                                      est.on_aoa(m);
                                      // The newest time taken (a stamp far ahead is not).
-                                     if (est.newest_angle_utime() != last_aoa_utime) {
-                                       last_aoa_utime = est.newest_angle_utime();
-                                       last_aoa_host = ips::monotonic_utime_now();
-                                     }
+                                     angle_clock.saw(est.newest_angle_utime());
                                    });
     node.add_timer(0.02, [&] {
-      if (last_aoa_utime != 0)
-        est.flush_angles(last_aoa_utime + (ips::monotonic_utime_now() - last_aoa_host));
+      if (const ips::utime_t now = angle_clock.now()) est.flush_angles(now);
     });
     node.subscribe<ips::imu_t>(opts.channel(ips::channel::kImu),
                                [&](const ips::imu_t& m, const std::string&) {

@@ -7,7 +7,7 @@
 #include "core/node.hpp"
 #include "core/site_source.hpp"
 #include "core/tag_filter.hpp"
-#include "core/time.hpp"
+#include "core/message_clock.hpp"
 #include "estimators/aoa/aoa_estimator.hpp"
 
 namespace {
@@ -51,16 +51,13 @@ int main(int argc, char** argv) {
     });
     // The events' own clock, carried forward by the host clock while the bus is quiet: an epoch
     // closes when its window has passed in the events' time, also for a log played back.
-    ips::utime_t last_event_utime = 0, last_event_host = 0;
+    ips::MessageClock event_clock;
     node.subscribe<ips::ble_aoa_t>(
         opts.channel(ips::channel::kBleAoa), [&](const ips::ble_aoa_t& m, const std::string&) {
           if (!tag_filter.pass(m.tag_id)) return;
           est.on_event(m);
           // The newest time the estimator took (a stamp far ahead is not taken: time_guard.hpp).
-          if (est.newest_event_utime() != last_event_utime) {
-            last_event_utime = est.newest_event_utime();
-            last_event_host = ips::monotonic_utime_now();
-          }
+          event_clock.saw(est.newest_event_utime());
         });
     // Events that gave no pose, by reason, in HEALTH once a second; gated angles and multipath
     // duplicates are counted in drops without marking the process degraded.
@@ -72,8 +69,7 @@ int main(int argc, char** argv) {
       consistency_health.report(node, est.consistency());
     });
     node.add_timer(0.02, [&] {
-      if (last_event_utime != 0)
-        est.flush(last_event_utime + (ips::monotonic_utime_now() - last_event_host));
+      if (const ips::utime_t now = event_clock.now()) est.flush(now);
     });
     return node.run();
   });
