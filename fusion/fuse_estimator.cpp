@@ -139,6 +139,11 @@ void FuseEstimator::maybe_publish(const std::string& tag_id, Track& t) {
   // agrees with it or enough refute it (count_absolute), so that no estimate says 0.3 m around a
   // position metres off.
   if (t.state.prior_only && t.state.rejections > 0) return;
+  // Nor, for its first second, while no fix of the ranges has checked it (check_against_ranges):
+  // a process restarted mid-walk would publish the site's start pose. (A tag without ranges, or
+  // with too few for a checked fix, is published after that second.)
+  constexpr utime_t kPriorUncheckedS = 1'000'000;
+  if (t.prior_unchecked && t.state.t - t.started_at < kPriorUncheckedS) return;
   if (!t.tally.due(t.state.t, params_.publish_period_s)) return;
   const FuseFilter& f = t.state.filter;
   pose_t p;

@@ -272,6 +272,9 @@ class FuseEstimator {
     int gated_since_check = 0;            // ranges gated since the last check_against_ranges
     utime_t last_lost_check = 0;
     int lost_checks = 0;                  // checks in a row that found the track far off
+    utime_t last_checked_fix = 0;         // the last fix of the ranges with a spare range
+    bool prior_unchecked = false;         // started from a prior no such fix has checked yet
+    utime_t started_at = 0;
     // The radios' per-pair range offsets, learned as ips-uwb-twr does (uwb_twr/models/
     // range_bias.hpp) from the last epoch's ranges (value: less the configured bias only).
     uwb_twr::PairOffsets offsets;
@@ -341,7 +344,8 @@ class FuseEstimator {
   void apply_displacement(Track& t, const Measurement& m, bool live);
   // An absolute measurement accepted or gated: after reinit_after_rejections gated in a row
   // the track is widened.
-  void count_absolute(Snapshot& s, utime_t t, bool accepted, bool live);
+  // (`widen`: false where check_against_ranges judges the track instead.)
+  void count_absolute(Snapshot& s, utime_t t, bool accepted, bool live, bool widen = true);
   void maybe_publish(const std::string& tag_id, Track& t);
   void on_dead_reckoning(const pose_t& m, DisplacementSource src, uint32_t bit);
   // Whether the tag's displacements come from `src`; the others are counted in

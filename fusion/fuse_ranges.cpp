@@ -107,7 +107,11 @@ void FuseEstimator::apply_range(Track& t, Snapshot& s, const Measurement& m, boo
                                                             m.value, noise)
                : uwb_twr::range_update_state<3, kStateSize>(f.x, f.P, anchor, 0.0, m.value,
                                                             noise);
-  count_absolute(s, m.t, u.accepted, live);
+  // Where the ranges checked fixes of late, the track is judged by check_against_ranges rather
+  // than widened.
+  constexpr utime_t kCheckedRecently = 2'000'000;
+  count_absolute(s, m.t, u.accepted, live,
+                 t.last_checked_fix == 0 || m.t - t.last_checked_fix > kCheckedRecently);
   if (live) {
     consistency_.add_scalar("RANGE", anchor_id, utime_to_s(m.t), u.innovation_m, u.hph, r_cfg,
                             !u.accepted, range_setting_);

@@ -112,6 +112,9 @@ void FuseEstimator::start(const std::string& tag_id, Track& t, utime_t time,
   t.initialised = true;
   t.ever_started = true;
   t.state = Snapshot{time, time, f, time, 0, prior};
+  t.prior_unchecked = prior;
+  t.started_at = time;
+  t.lost_checks = 0;
   t.base = t.state;
   t.history.clear();
   t.snapshots.clear();
@@ -175,45 +178,63 @@ void FuseEstimator::try_start_from_ranges(const std::string& tag_id, Track& t) {
 
 void FuseEstimator::check_against_ranges(const std::string& tag_id, Track& t) {
   // A running track that gates ranges while the ranges agree among themselves on a place the
-  // track is not has lost the tag: it was started from a prior that one lucky range seemed to
-  // confirm, or the tag jumped (a simulator or a tag restarted, a wrong hosted fix), and the
-  // gate keeps the ranges that would bring it back out. Widening step by step (count_absolute)
-  // takes seconds of confident estimates metres off. So, at most every kLostCheckS while some
-  // ranges are gated: a multilateration of the last epoch's ranges (with a spare range, its
-  // residual checked as a start's is); kLostChecks of them in a row far outside the track's and
-  // the fix's uncertainty, and the track starts afresh at the fix (`lost_restarts`, HEALTH).
+  // track is not has lost the tag: the tag jumped (a simulator or a tag restarted), or the track
+  // was started wrong (a hosted AoA tracker's first fix) and the gate keeps out the ranges that
+  // would bring it back. Widening step by step (count_absolute) took seconds of confident
+  // estimates metres off. So, at most every kLostCheckS while some ranges are gated: a
+  // multilateration of the last epoch's ranges (with a spare range, its residual checked as a
+  // start's is); kLostChecks of them in a row far outside the track's and the fix's uncertainty,
+  // and the track starts afresh at the fix (`lost_restarts`, HEALTH).
+  // A start from a prior (the site's start pose, a dead-reckoning position) is checked the same
+  // way by the first such fix, gated or not: one that disagrees refutes the prior at once (a
+  // process restarted mid-walk), one that agrees confirms it; unpublished until then
+  // (maybe_publish).
   constexpr double kLostCheckS = 0.2;
   constexpr int kLostChecks = 3;
-  constexpr double kChi2 = 13.8;      // 2 degrees of freedom, 99.9 %
-  constexpr double kMinJumpM = 1.0;   // never for less: ranges of a moving tag spread that much
-  if (t.gated_since_check == 0 || t.init_ranges.empty() ||
+  constexpr double kChi2 = 13.8;     // 2 degrees of freedom, 99.9 %
+  constexpr double kMinJumpM = 0.5;  // never for less: the ranges of a moving tag spread so
+  if ((t.gated_since_check == 0 && !t.prior_unchecked) || t.init_ranges.empty() ||
       t.init_ranges.back().t - t.last_lost_check < s_to_utime(kLostCheckS))
     return;
+  const auto fix = fix_from_ranges(tag_id, t);
+  if (t.prior_unchecked && (!fix || !fix->checked)) return;  // at the next range again
   t.last_lost_check = t.init_ranges.back().t;
   t.gated_since_check = 0;
-  const auto fix = fix_from_ranges(tag_id, t);
   if (!fix || !fix->checked) {
     t.lost_checks = 0;
     return;
   }
+  t.last_checked_fix = fix->t;
   const FuseFilter& f = t.state.filter;
   const Eigen::Vector2d d = (fix->position - f.x.head<3>()).head<2>();
   const double var = f.P.topLeftCorner<2, 2>().trace() + 2.0 * fix->sigma_m * fix->sigma_m;
-  if (d.norm() < kMinJumpM || d.squaredNorm() < kChi2 * var) {
-    t.lost_checks = 0;
-    return;
+  const bool far = d.norm() >= kMinJumpM && d.squaredNorm() >= kChi2 * var;
+  if (t.prior_unchecked) {
+    // The ranges taken meanwhile may have pulled the track part of the way, its covariance
+    // shrinking as if the prior had been right: unless it is within the fix's own noise, the
+    // track starts afresh at the fix (refuted, and said, when also far by the test above).
+    t.prior_unchecked = false;
+    if (d.norm() <= fix->sigma_m) return;  // confirmed
+    if (far) ++stats_.prior_refuted;
+  } else {
+    if (!far) {
+      t.lost_checks = 0;
+      return;
+    }
+    if (++t.lost_checks < kLostChecks) return;
+    ++stats_.lost_restarts;
+    char text[200];
+    std::snprintf(text, sizeof text,
+                  "track %.1f m from where its ranges agree the tag is, gating them: restarted "
+                  "there",
+                  d.norm());
+    last_lost_ = printable(tag_id) + ": " + text;
   }
-  if (++t.lost_checks < kLostChecks) return;
-  ++stats_.lost_restarts;
-  char text[200];
-  std::snprintf(text, sizeof text,
-                "track %.1f m from where its ranges agree the tag is, gating them: restarted there",
-                d.norm());
-  last_lost_ = printable(tag_id) + ": " + text;
   start(tag_id, t, fix->t, fix->position, fix->sigma_m);  // its next pose flagged REINITIALISED
 }
 
-void FuseEstimator::count_absolute(Snapshot& s, utime_t t, bool accepted, bool live) {
+void FuseEstimator::count_absolute(Snapshot& s, utime_t t, bool accepted, bool live,
+                                   bool widen) {
   // A start from a prior that the first absolute measurements gate, kPriorRefuted in a row: the
   // tag is not where the prior says (a process restarted mid-walk takes the site's start pose, or
   // a module's dead-reckoning position, for where the tag is now). add() then starts the track
@@ -226,9 +247,10 @@ void FuseEstimator::count_absolute(Snapshot& s, utime_t t, bool accepted, bool l
     s.prior_only = false;
   } else if (++s.rejections >= kPriorRefuted && s.prior_only) {
     s.prior_refuted = true;
-  } else if (s.rejections >= params_.reinit_after_rejections) {
+  } else if (s.rejections >= params_.reinit_after_rejections && widen) {
     // Gated again and again: the track has lost the tag. Widen it so that the ranges are taken
-    // again (a re-acquisition, not a jump past the gate of one range).
+    // again (a re-acquisition, not a jump past the gate of one range). Not for ranges that
+    // check_against_ranges can judge (a widened track would pass its test).
     FuseFilter& f = s.filter;
     for (int i = 0; i < (f.planar ? 2 : 3); ++i) f.P(i, i) += 1.0;
     s.rejections = 0;
