@@ -52,7 +52,7 @@ void add_common_options(CLI::App& app, CommonOptions& opts, CommonFlags flags) {
     app.add_option("--tags", opts.tags,
                    "handle only these tags: ids and globs (* any run, ? one character), "
                    "comma-separated, e.g. T1,T2 or 'T1*'; messages of other tags are skipped and "
-                   "counted in HEALTH's note (default: every tag)")
+                   "counted (in HEALTH's note; in ips-replay's summary) (default: every tag)")
         ->type_name("PATTERN");
     app.add_option("--shard", opts.shard,
                    "handle only shard K of N (1 <= K <= N <= 1024): the tags whose FNV-1a 64 hash "

@@ -20,6 +20,7 @@
 #include "core/log_input.hpp"
 #include "core/log_reader.hpp"
 #include "core/log_writer.hpp"
+#include "core/tag_selector.hpp"
 #include "core/text_escape.hpp"
 #include "loggers/replay/replay_host.hpp"
 #include "loggers/replay/sweep.hpp"
@@ -35,7 +36,8 @@ int main(int argc, char** argv) {
                "--set estimators.fuse.accel_psd=0.5,1\n",
                "ips-replay"};
   ips::CommonOptions opts;
-  ips::add_common_options(app, opts, {.lcm = false, .site = true, .channels = true});
+  ips::add_common_options(app, opts,
+                          {.lcm = false, .site = true, .channels = true, .tags = true});
   std::string out_path, only;
   std::vector<std::string> in_paths;
   bool keep = false;
@@ -102,6 +104,8 @@ int main(int argc, char** argv) {
     ro.keep_regenerated = keep;
     ro.site_path = opts.site_path;
     ro.zones_pose_channel = zones_pose_channel;
+    ro.tags = opts.tags;
+    ro.shard = opts.shard;
     ro.threads = jobs > 0 ? jobs : std::min(cores, 2);
     std::stringstream names(only);
     for (std::string n; std::getline(names, n, ',');)
@@ -179,6 +183,12 @@ int main(int argc, char** argv) {
                  s.events_in, s.passed_through, s.dropped_regenerated, s.estimates_out, hosted,
                  s.undecodable, s.bad_sites, secs, static_cast<double>(s.events_in) / secs,
                  secs > 0 ? span / secs : 0.0, ro.threads >= 2 ? 2 : 1, ro.threads >= 2 ? "s" : "");
+    if (s.skipped_other_tags > 0 || !opts.tags.empty() || !opts.shard.empty()) {
+      std::string error;
+      const auto sel = ips::TagSelector::parse(opts.tags, opts.shard, error);
+      spdlog::info("ips-replay: {}: {} messages of other tags not estimated (passed through)",
+                   sel ? sel->describe() : std::string("--tags/--shard"), s.skipped_other_tags);
+    }
     // Per estimator: in, out, and why inputs gave nothing; an estimator that had input and gave
     // nothing for a fault is a warning. A replay that estimated nothing at all fails (status 1)
     // with one error line that carries the reasons.

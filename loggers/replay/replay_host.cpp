@@ -20,6 +20,17 @@
 namespace ips::replay {
 
 namespace {
+// The site's anchors and reference stations: senders that are no tag, always taken (as
+// core/tag_filter.hpp does live).
+std::vector<std::string> not_tags(const Site& site) {
+  std::vector<std::string> ids;
+  for (const auto& a : site.anchors) ids.push_back(a.id);
+  for (const auto& st : site.baro_stations) ids.push_back(st.id);
+  return ids;
+}
+}  // namespace
+
+namespace {
 // Steps per batch handed to the second thread, and batches queued at most.
 constexpr size_t kBatchSteps = 4096;
 constexpr size_t kMaxQueuedBatches = 8;
@@ -47,6 +58,11 @@ ReplayHost::ReplayHost(const ReplayOptions& opts, const CommonOptions& channels,
       throw ConfigError("--only: unknown estimator '" + name + "' (" + names + ")");
     }
   }
+  std::string tags_error;
+  auto selector = TagSelector::parse(opts_.tags, opts_.shard, tags_error);
+  if (!selector) throw ConfigError(tags_error);
+  tags_ = *selector;
+  stage_tags_ = std::move(*selector);
   auto wanted = [&](const char* name) { return opts_.only.empty() || opts_.only.count(name); };
   if (wanted(kUwbTwr)) {
     const std::string out = channels_.channel(channel::kPoseUwb);
@@ -334,6 +350,7 @@ void ReplayHost::run(const Step& s, const uint8_t* data) {
       feed_zones_from_log(channel, data, s.size);
       break;
     case Op::kSite:
+      stage_tags_.set_always_selected(not_tags(*sites_[s.offset]));
       if (fuse_) fuse_->set_site(*sites_[s.offset]);
       if (zones_) zones_->set_site(*sites_[s.offset]);
       break;
@@ -442,6 +459,7 @@ void ReplayHost::feed_fuse_from_log(const std::string& channel, const uint8_t* d
       ++stage_undecodable_;
       return;
     }
+    if (!stage_take(m.tag_id)) return;
     if (ins_module) {
       ++counts_[kFuseIndex].in;
       fuse_->on_ins_module(m);
@@ -454,6 +472,7 @@ void ReplayHost::feed_fuse_from_log(const std::string& channel, const uint8_t* d
       ++stage_undecodable_;
       return;
     }
+    if (!stage_take(m.tag_id)) return;
     ++counts_[kFuseIndex].in;
     fuse_->on_step(m);
   } else if (channel == channels_.channel(channel::kAltitude)) {
@@ -462,6 +481,7 @@ void ReplayHost::feed_fuse_from_log(const std::string& channel, const uint8_t* d
       ++stage_undecodable_;
       return;
     }
+    if (!stage_take(m.tag_id)) return;
     ++counts_[kFuseIndex].in;
     fuse_->on_altitude(m);
   }
@@ -469,6 +489,7 @@ void ReplayHost::feed_fuse_from_log(const std::string& channel, const uint8_t* d
 
 void ReplayHost::apply_site(const Site& site) {
   site_applied_ = true;
+  tags_.set_always_selected(not_tags(site));
   if (twr_) twr_->set_site(site);
   if (tdoa_) tdoa_->set_site(site);
   if (aoa_) aoa_->set_site(site);
@@ -496,6 +517,8 @@ void ReplayHost::feed_zones_from_log(const std::string& channel, const uint8_t* 
       ++stage_undecodable_;
       return;
     }
+    if constexpr (requires { msg.tag_id; })
+      if (!stage_take(msg.tag_id)) return;
     ++counts_[kZonesIndex].in;
     use(msg);
   };
@@ -527,6 +550,7 @@ void ReplayHost::finish() {
     rethrow_worker_error();
   }
   stats_.undecodable += std::exchange(stage_undecodable_, 0);
+  stats_.skipped_other_tags += std::exchange(stage_skipped_, 0);
 }
 
 void ReplayHost::process(const std::string& channel, int64_t timestamp, const uint8_t* data,
@@ -564,7 +588,7 @@ void ReplayHost::process(const std::string& channel, int64_t timestamp, const ui
     }
     case Input::kUwbRange: {
       uwb_range_t m;
-      if (!(twr_ || fuse_) || !decode(m)) break;
+      if (!(twr_ || fuse_) || !decode(m) || !take(m.tag_id)) break;
       if (twr_) {
         ++counts_[kTwrIndex].in;
         twr_->on_range(m);
@@ -574,7 +598,8 @@ void ReplayHost::process(const std::string& channel, int64_t timestamp, const ui
     }
     case Input::kUwbRx: {
       uwb_rx_t m;
-      if (!(tdoa_ || fuse_) || !decode(m)) break;
+      // A sync master's broadcast serves every tag.
+      if (!(tdoa_ || fuse_) || !decode(m) || (!m.is_sync && !take(m.sender_id))) break;
       // ips-fuse hears a blink before the POSE_TDOA made of it, as on the bus.
       if (fuse_) post(Op::kFuseRx, c.id, data, size, stable);
       if (tdoa_) {
@@ -585,7 +610,7 @@ void ReplayHost::process(const std::string& channel, int64_t timestamp, const ui
     }
     case Input::kUwbTdoa: {
       uwb_tdoa_t m;
-      if (!(tdoa_ || fuse_) || !decode(m)) break;
+      if (!(tdoa_ || fuse_) || !decode(m) || !take(m.tag_id)) break;
       if (fuse_) post(Op::kFusePair, c.id, data, size, stable);
       if (tdoa_) {
         ++counts_[kTdoaIndex].in;
@@ -595,7 +620,7 @@ void ReplayHost::process(const std::string& channel, int64_t timestamp, const ui
     }
     case Input::kBleAoa: {
       ble_aoa_t m;
-      if (!(aoa_ || fuse_) || !decode(m)) break;
+      if (!(aoa_ || fuse_) || !decode(m) || !take(m.tag_id)) break;
       if (fuse_) post(Op::kFuseAoa, c.id, data, size, stable);
       if (aoa_) {
         ++counts_[kAoaIndex].in;
@@ -605,7 +630,7 @@ void ReplayHost::process(const std::string& channel, int64_t timestamp, const ui
     }
     case Input::kImu: {
       imu_t m;
-      if (!(pdr_ || ins_ || fuse_) || !decode(m)) break;
+      if (!(pdr_ || ins_ || fuse_) || !decode(m) || !take(m.device_id)) break;
       if (fuse_) post(Op::kFuseImu, c.id, data, size, stable);
       if (pdr_) {
         ++counts_[kPdrIndex].in;
@@ -619,7 +644,7 @@ void ReplayHost::process(const std::string& channel, int64_t timestamp, const ui
     }
     case Input::kBaro: {
       baro_t m;
-      if (!altitude_ || !decode(m)) break;
+      if (!altitude_ || !decode(m) || (!m.is_reference && !take(m.sensor_id))) break;
       ++counts_[kAltitudeIndex].in;
       altitude_->on_baro(m);
       break;

@@ -27,6 +27,7 @@
 #include "core/cli.hpp"
 #include "core/drop_reasons.hpp"
 #include "core/site.hpp"
+#include "core/tag_selector.hpp"
 #include "estimators/altitude/altitude_estimator.hpp"
 #include "estimators/aoa/aoa_estimator.hpp"
 #include "estimators/ins/ins_estimator.hpp"
@@ -49,6 +50,11 @@ struct ReplayOptions {
   // 1: everything on the caller's thread; 2: ips-fuse, ips-zones and the sink on a second thread
   // (the same output). More is taken as 2.
   int threads = 1;
+  // --tags and --shard (core/tag_selector.hpp): the hosted estimators take only these tags'
+  // messages, as live instances of a partitioned site do; the others are still passed through
+  // to the output and counted in ReplayStats::skipped_other_tags. Empty: every tag.
+  std::string tags;
+  std::string shard;
 };
 
 struct ReplayStats {
@@ -58,6 +64,7 @@ struct ReplayStats {
   int64_t estimates_out = 0;
   int64_t undecodable = 0;          // on an estimator's input channel but not its type
   int64_t bad_sites = 0;
+  int64_t skipped_other_tags = 0;  // messages of tags outside --tags / --shard, not estimated
 };
 
 // One hosted estimator's account of a replay: what went in, what came out, and why inputs gave no
@@ -139,6 +146,15 @@ class ReplayHost {
   // A log event on one of the fusion's inputs that no hosted estimator produces.
   void feed_fuse_from_log(const std::string& channel, const uint8_t* data, size_t size);
   void apply_site(const Site& site);
+  // Whether a message of this tag is for the hosted estimators (--tags, --shard); false counts
+  // it. One selector per stage: each remembers its decisions.
+  bool take(const std::string& id) { return take(tags_, id); }
+  bool stage_take(const std::string& id) { return take(stage_tags_, id); }
+  bool take(TagSelector& sel, const std::string& id) {
+    if (sel.selects_all() || sel.selects(id)) return true;
+    ++(&sel == &tags_ ? stats_.skipped_other_tags : stage_skipped_);
+    return false;
+  }
   // A log event for the hosted ips-zones: its poses, ALTITUDE, HEALTH.
   void feed_zones_from_log(const std::string& channel, const uint8_t* data, size_t size);
 
@@ -204,6 +220,9 @@ class ReplayHost {
   std::vector<std::unique_ptr<Site>> sites_;
   int64_t stage_timestamp_ = 0;    // the second stage's now: the step it runs
   int64_t stage_undecodable_ = 0;  // decoding failures in the second stage
+  int64_t stage_skipped_ = 0;      // messages of other tags in the second stage
+  TagSelector tags_;                // the first stage's
+  TagSelector stage_tags_;          // the second stage's
   bool threaded_ = false;
   Batch batch_;
   std::thread thread_;

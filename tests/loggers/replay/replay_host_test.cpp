@@ -15,6 +15,7 @@
 #include <ips/step_t.hpp>
 #include <ips/uwb_range_t.hpp>
 #include <ips/zone_event_t.hpp>
+#include <map>
 #include <set>
 #include <stdexcept>
 #include <ips/site_t.hpp>
@@ -38,9 +39,11 @@ struct Out {
 std::vector<Out> replay(const ReplayOptions& ro, double duration_s = 20,
                         const std::vector<Out>& extra_inputs = {},
                         const std::string& scenario = "lab",
-                        const std::function<void(const ReplayHost&)>& inspect = {}) {
+                        const std::function<void(const ReplayHost&)>& inspect = {},
+                        int walkers = 1) {
   sim::Scenario sc = sim::load_scenario(scenario);
   sc.duration_s = duration_s;
+  sim::replicate_walkers(sc, walkers);
   sim::Simulator sim(sc, 1, 1767225600000000);
   std::vector<Out> out;
   ReplayHost host(ro, CommonOptions{}, [&](const std::string& ch, int64_t ts, const uint8_t* d,
@@ -100,6 +103,64 @@ TEST(ReplayHost, TwoThreadsGiveTheSameOutputAsOne) {
 
 // A failure in the second stage (here the sink's) reaches the caller, from process() or finish(),
 // and the host still closes cleanly.
+// --shard K/N (and --tags): the hosted estimators take only their tags' messages, as live
+// shards do; every input is still passed through. Three shards of a 6-tag lab estimate disjoint
+// sets of tags whose union is every tag, each tag with as many fused and UWB poses as in the
+// whole replay (within one), and each shard counts the messages of the others' tags it skipped.
+TEST(ReplayHost, ShardsSplitTheTagsAndTogetherEstimateEveryOne) {
+  const auto poses_by_tag = [](const std::vector<Out>& out) {
+    std::map<std::string, std::map<std::string, int>> n;  // channel -> tag -> poses
+    for (const auto& o : out) {
+      if (o.channel != "POSE_FUSED" && o.channel != "POSE_UWB") continue;
+      pose_t p;
+      EXPECT_GT(p.decode(o.data.data(), 0, static_cast<int>(o.data.size())), 0);
+      ++n[o.channel][p.tag_id];
+    }
+    return n;
+  };
+  int64_t inputs_whole = 0;
+  const auto whole = poses_by_tag(replay({}, 20, {}, "lab", [&](const ReplayHost& h) {
+    inputs_whole = h.stats().passed_through;
+  }, 6));
+  ASSERT_EQ(whole.at("POSE_FUSED").size(), 6u);
+  std::map<std::string, std::map<std::string, int>> joined;
+  int64_t skipped = 0;
+  for (int k = 1; k <= 3; ++k) {
+    ReplayOptions ro;
+    ro.shard = std::to_string(k) + "/3";
+    int64_t passed = 0;
+    const auto part = poses_by_tag(replay(ro, 20, {}, "lab", [&](const ReplayHost& h) {
+      passed = h.stats().passed_through;
+      skipped += h.stats().skipped_other_tags;
+    }, 6));
+    EXPECT_EQ(passed, inputs_whole) << ro.shard;  // every input still passed through
+    for (const auto& [channel, tags] : part)
+      for (const auto& [tag, n] : tags) {
+        EXPECT_EQ(shard_of(tag, 3), k) << tag;
+        EXPECT_FALSE(joined[channel].count(tag)) << tag << " on two shards";
+        joined[channel][tag] = n;
+      }
+  }
+  // The same tags on each channel, and as many poses within one: the fusion learns each anchor's
+  // noise from all the tags it hears (core/consistency.hpp), so a shard's differs a little and a
+  // pose can fall either side of the publish period (tests/integration/shards_live_netns.sh).
+  for (const auto& [channel, tags] : whole) {
+    ASSERT_EQ(joined[channel].size(), tags.size()) << channel;
+    for (const auto& [tag, n] : tags) EXPECT_NEAR(joined[channel][tag], n, 1) << channel << " " << tag;
+  }
+  EXPECT_GT(skipped, inputs_whole);  // each tag's messages skipped by the two other shards
+  // --tags: one tag by name, one by a glob.
+  ReplayOptions ro;
+  ro.tags = "T1,T1-5*";
+  const auto some = poses_by_tag(replay(ro, 20, {}, "lab", {}, 6));
+  EXPECT_EQ(some.at("POSE_FUSED").size(), 2u);
+  EXPECT_EQ(some.at("POSE_FUSED").at("T1"), whole.at("POSE_FUSED").at("T1"));
+  EXPECT_TRUE(some.at("POSE_FUSED").count("T1-5"));
+  ro.tags = "";
+  ro.shard = "4/3";
+  EXPECT_THROW(replay(ro, 1), ConfigError);
+}
+
 TEST(ReplayHost, AnErrorOnTheSecondThreadIsThrownToTheCaller) {
   sim::Scenario sc = sim::load_scenario("lab");
   sc.duration_s = 20;
