@@ -79,6 +79,10 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   bool json = false;
   app.add_flag("--json", json, "a sweep's table as JSON on stdout");
+  std::string out_dir;
+  app.add_option("--out-dir", out_dir,
+                 "a sweep: also write each configuration's replay into DIR (config-N.lcm, "
+                 "config-N-log-K.lcm with several logs; index.tsv names their settings)");
   int rc = 0;
   if (!ips::parse_command_line(app, opts, argc, argv, rc)) return rc;
   if (!ips::channel::valid_channel_name(zones_pose_channel)) {
@@ -96,6 +100,10 @@ int main(int argc, char** argv) {
   }
   if (!sets.empty() && !out_path.empty()) {
     ips::print_fatal("ips-replay", "--out does not apply to a sweep (--set)");
+    return 2;
+  }
+  if (sets.empty() && !out_dir.empty()) {
+    ips::print_fatal("ips-replay", "--out-dir is for a sweep (--set); a replay writes --out");
     return 2;
   }
 
@@ -119,6 +127,7 @@ int main(int argc, char** argv) {
       so.metric = sort_metric;
       so.jobs = jobs > 0 ? jobs : cores;
       so.replay = ro;
+      so.out_dir = out_dir;
       so.channels = opts;
       ips::ProgressLine progress("ips-replay");
       so.progress = [&](size_t done, size_t total) {

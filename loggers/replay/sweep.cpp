@@ -2,6 +2,9 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
 #include <cmath>
 #include <filesystem>
 #include <ips/pose_t.hpp>
@@ -12,6 +15,7 @@
 
 #include "core/channels.hpp"
 #include "core/log_input.hpp"
+#include "core/log_writer.hpp"
 #include "core/node.hpp"
 #include "core/site_edit.hpp"
 #include "loggers/eval/evaluation.hpp"
@@ -55,7 +59,15 @@ Site site_of_log(const std::string& path, const CommonOptions& channels) {
 }
 
 // One configuration on one log: replayed, the metric channel scored against TRUTH.
-SweepScore score(const SweepOptions& o, const std::string& path, std::shared_ptr<const Site> site) {
+// With `out_path`, the replay is also written there.
+SweepScore score(const SweepOptions& o, const std::string& path, std::shared_ptr<const Site> site,
+                 const std::string& out_path) {
+  std::unique_ptr<LogWriter> out;
+  if (!out_path.empty()) {
+    out = std::make_unique<LogWriter>(out_path);
+    if (!out->ok()) throw ConfigError(out->error());
+  }
+  bool write_failed = false;
   ReplayOptions ro = o.replay;
   ro.site = std::move(site);
   ro.site_path.clear();
@@ -63,7 +75,9 @@ SweepScore score(const SweepOptions& o, const std::string& path, std::shared_ptr
   eval::Evaluator ev;
   const std::string truth = o.channels.channel(channel::kTruth);
   pose_t m;
-  ReplayHost host(ro, o.channels, [&](const std::string& ch, int64_t, const uint8_t* d, size_t n) {
+  ReplayHost host(ro, o.channels, [&](const std::string& ch, int64_t ts, const uint8_t* d,
+                                       size_t n) {
+    if (out && !out->add(ch, ts, d, n)) write_failed = true;
     if (ch != truth && ch != o.channel) return;
     if (!decode_message(m, d, n)) return;
     if (ch == truth)
@@ -74,9 +88,13 @@ SweepScore score(const SweepOptions& o, const std::string& path, std::shared_ptr
   const auto in = LogInput::open("ips-replay", path, true);
   if (!in) throw ConfigError("cannot read log '" + path + "'");
   in->hide_progress();
-  while (const LogEvent* e = in->next())
+  while (const LogEvent* e = in->next()) {
     host.process(e->channel, e->timestamp_us, e->data, e->size, true);
+    if (write_failed) break;
+  }
   host.finish();
+  if (out && (write_failed || !out->close()))
+    throw ConfigError(out->error() + " (disk full?)");
   SweepScore s;
   for (const eval::ErrorRow& r : ev.rows_by_channel()) {
     if (r.channel != o.channel) continue;
@@ -183,6 +201,20 @@ std::vector<SweepRow> run_sweep(const SweepOptions& o) {
     rows[c].values = grid[c];
     rows[c].logs.resize(o.logs.size());
   }
+  // The replays' files, when asked for.
+  const auto output = [&](size_t c, size_t l) {
+    if (o.out_dir.empty()) return std::string();
+    std::string name = "config-" + std::to_string(c + 1);
+    if (o.logs.size() > 1) name += "-log-" + std::to_string(l + 1);
+    return (std::filesystem::path(o.out_dir) / (name + ".lcm")).string();
+  };
+  if (!o.out_dir.empty()) {
+    std::error_code ec;
+    std::filesystem::create_directories(o.out_dir, ec);
+    if (ec) throw ConfigError("--out-dir '" + o.out_dir + "': " + ec.message());
+    for (size_t c = 0; c < grid.size(); ++c)
+      for (size_t l = 0; l < o.logs.size(); ++l) rows[c].outputs.push_back(output(c, l));
+  }
   const size_t tasks = grid.size() * o.logs.size();
   std::atomic<size_t> next{0};
   std::mutex mutex;
@@ -195,7 +227,7 @@ std::vector<SweepRow> run_sweep(const SweepOptions& o) {
       try {
         const auto site =
             std::make_shared<const Site>(site_with_settings(bases[l], o.settings, grid[c]));
-        s = score(o, o.logs[l], site);
+        s = score(o, o.logs[l], site, output(c, l));
       } catch (const std::exception& e) {
         error = e.what();
       }
@@ -211,6 +243,22 @@ std::vector<SweepRow> run_sweep(const SweepOptions& o) {
   for (int j = 1; j < jobs; ++j) threads.emplace_back(work);
   work();
   for (auto& t : threads) t.join();
+  if (!o.out_dir.empty()) {  // the index, in grid order
+    const std::string index = (std::filesystem::path(o.out_dir) / "index.tsv").string();
+    std::FILE* f = std::fopen(index.c_str(), "w");
+    if (!f) throw ConfigError("--out-dir: cannot write '" + index + "': " + std::strerror(errno));
+    std::string text = "file";
+    for (const auto& st : o.settings) text += "\t" + st.key;
+    text += "\tlog\terror\n";
+    for (const auto& r : rows)
+      for (size_t l = 0; l < r.outputs.size(); ++l) {
+        text += std::filesystem::path(r.outputs[l]).filename().string();
+        for (const auto& v : r.values) text += "\t" + v;
+        text += "\t" + o.logs[l] + "\t" + r.error + "\n";
+      }
+    const bool ok = std::fwrite(text.data(), 1, text.size(), f) == text.size();
+    if (std::fclose(f) != 0 || !ok) throw ConfigError("--out-dir: cannot write '" + index + "'");
+  }
   for (auto& r : rows) {
     double sum = 0;
     for (const auto& s : r.logs) sum += s.metric(o.metric);
@@ -285,6 +333,7 @@ std::string sweep_json(const SweepOptions& o, const std::vector<SweepRow>& rows)
     row["values"] = values;
     row["mean"] = num(r.mean);
     if (!r.error.empty()) row["error"] = r.error;
+    if (!r.outputs.empty()) row["outputs"] = r.outputs;
     row["logs"] = json::array();
     for (size_t l = 0; l < r.logs.size(); ++l) {
       const SweepScore& s = r.logs[l];

@@ -42,6 +42,7 @@ struct SweepScore {
 struct SweepRow {
   std::vector<std::string> values;  // one per setting
   std::vector<SweepScore> logs;     // one per log
+  std::vector<std::string> outputs;  // with SweepOptions::out_dir: the replays written, per log
   std::string error;                // the configuration failed: why (then logs is empty)
   double mean = 0;                  // the metric averaged over the logs (NaN when not scored)
 };
@@ -55,6 +56,10 @@ struct SweepOptions {
   int jobs = 1;
   ReplayOptions replay;  // only, zones_pose_channel, keep (site and threads are the sweep's)
   CommonOptions channels;
+  // Also write each configuration's replay (what `ips-replay LOG --out` writes) into this
+  // directory, made when missing: config-<n>.lcm, or config-<n>-log-<k>.lcm with several logs
+  // (n and k from 1, in grid and --set order), and index.tsv naming each file's settings and log.
+  std::string out_dir;
   // Called after each configuration finishes (from a worker thread, serialised): done, total.
   std::function<void(size_t, size_t)> progress;
 };

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# ips-replay --jobs and --set (issue 25): a 4-tag lab log replayed on one thread and on two gives
+# ips-replay --jobs, --set and --out-dir (issue 25): a 4-tag lab log replayed on one thread and on two gives
 # the same bytes, mapped or read through a pipe-like copy; a sweep over a site setting gives one
 # row per value, sorted, each row's score the one ips-eval gives the replay of that
 # configuration; bad --set values are refused, and a configuration the estimators refuse is a
@@ -48,7 +48,7 @@ print("%.3f" % rows[0]["rmse_h"])')
 done < <(grep -E '^  [0-9]+ +0\.[0-9]+ ' "$WORK/sweep.txt")
 # JSON: the same rows.
 "$BIN/ips-replay" "$WORK/in.lcm" --site "$WORK/lab.yaml" --set estimators.fuse.range_sigma_m=0.3,0.05,0.1 \
-  --json --log-level warn >"$WORK/sweep.json" || fail "sweep --json"
+  --json --out-dir "$WORK/sweep-out" --log-level warn >"$WORK/sweep.json" || fail "sweep --json"
 python3 - "$WORK/sweep.json" <<'PY' && echo "ok: --json" || fail "--json rows"
 import json, sys
 j = json.load(open(sys.argv[1]))
@@ -59,6 +59,21 @@ assert means == sorted(means), means
 assert {r["values"]["estimators.fuse.range_sigma_m"] for r in rows} == {"0.3", "0.05", "0.1"}
 assert all(r["logs"][0]["count"] > 1000 for r in rows), rows
 PY
+# --out-dir: each configuration's replay, the same bytes as a replay with that site, and an index.
+python3 - "$WORK/sweep.json" "$WORK" <<'PY' && echo "ok: --out-dir replays as ips-replay --out writes them" || fail "--out-dir"
+import filecmp, json, os, sys
+j, work = json.load(open(sys.argv[1])), sys.argv[2]
+index = open(os.path.join(work, "sweep-out", "index.tsv")).read().splitlines()
+assert index[0] == "file\testimators.fuse.range_sigma_m\tlog\terror", index
+assert sorted(l.split("\t")[0] for l in index[1:]) == ["config-1.lcm", "config-2.lcm", "config-3.lcm"], index
+for r in j["rows"]:
+    value = r["values"]["estimators.fuse.range_sigma_m"]
+    [out] = r["outputs"]
+    assert filecmp.cmp(out, os.path.join(work, "r-%s.lcm" % value), shallow=False), (out, value)
+    assert any(l.startswith(os.path.basename(out) + "\t" + value + "\t") for l in index), index
+PY
+"$BIN/ips-replay" "$WORK/in.lcm" --out x.lcm --out-dir "$WORK/d" 2>"$WORK/e3" >/dev/null
+[ $? = 2 ] && grep -q "is for a sweep" "$WORK/e3" && echo "ok: $(cat "$WORK/e3")" || fail "--out-dir without --set: $(cat "$WORK/e3")"
 
 # Refusals: a malformed --set (status 2); a value the estimators refuse is a failed row; every
 # row failed is status 1.
