@@ -15,12 +15,14 @@ TagFilter::TagFilter(Node& node, const CommonOptions& opts) {
   node.add_timer(1.0, [this, &node] { node.report_note("tags", note()); });
 }
 
-void TagFilter::set_site(const Site& site) {
+std::vector<std::string> site_non_tag_ids(const Site& site) {
   std::vector<std::string> ids;
   for (const auto& a : site.anchors) ids.push_back(a.id);
   for (const auto& s : site.baro_stations) ids.push_back(s.id);
-  selector_.set_always_selected(ids);
+  return ids;
 }
+
+void TagFilter::set_site(const Site& site) { selector_.set_always_selected(site_non_tag_ids(site)); }
 
 std::string TagFilter::note() const {
   const int64_t tags = selector_.rejected_ids();

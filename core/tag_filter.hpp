@@ -6,12 +6,17 @@
 // (anchor-to-anchor ranges, a reference station's BARO) always pass.
 #include <cstdint>
 #include <string>
+#include <vector>
 
 #include "core/node.hpp"
 #include "core/site.hpp"
 #include "core/tag_selector.hpp"
 
 namespace ips {
+
+// The site's anchors and reference stations: senders that are no tag, always passed (also by
+// ips-replay's hosted estimators).
+std::vector<std::string> site_non_tag_ids(const Site& site);
 
 class TagFilter {
  public:

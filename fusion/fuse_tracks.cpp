@@ -142,7 +142,7 @@ std::optional<FuseEstimator::RangeFix> FuseEstimator::fix_from_ranges(const std:
   // from the bare minimum nothing tells a 1.3 m long range, and the start would be that far off
   // with the geometry's small sigma. A running track's check (check_against_ranges) always
   // needs the spare range.
-  if (t.waiting_since == 0) t.waiting_since = t.init_ranges.front().t;
+  if (!t.initialised && t.waiting_since == 0) t.waiting_since = t.init_ranges.front().t;
   int required = needed, enabled_uwb_anchors = 0;
   for (const auto& a : site_->anchors) enabled_uwb_anchors += a.enabled && a.kind == "uwb";
   if (t.initialised || newest - t.waiting_since <

@@ -20,7 +20,6 @@
 #include "core/log_input.hpp"
 #include "core/log_reader.hpp"
 #include "core/log_writer.hpp"
-#include "core/tag_selector.hpp"
 #include "core/text_escape.hpp"
 #include "loggers/replay/replay_host.hpp"
 #include "loggers/replay/sweep.hpp"
@@ -192,12 +191,9 @@ int main(int argc, char** argv) {
                  s.events_in, s.passed_through, s.dropped_regenerated, s.estimates_out, hosted,
                  s.undecodable, s.bad_sites, secs, static_cast<double>(s.events_in) / secs,
                  secs > 0 ? span / secs : 0.0, ro.threads >= 2 ? 2 : 1, ro.threads >= 2 ? "s" : "");
-    if (s.skipped_other_tags > 0 || !opts.tags.empty() || !opts.shard.empty()) {
-      std::string error;
-      const auto sel = ips::TagSelector::parse(opts.tags, opts.shard, error);
+    if (!host.tag_selector().selects_all())
       spdlog::info("ips-replay: {}: {} messages of other tags not estimated (passed through)",
-                   sel ? sel->describe() : std::string("--tags/--shard"), s.skipped_other_tags);
-    }
+                   host.tag_selector().describe(), s.skipped_other_tags);
     // Per estimator: in, out, and why inputs gave nothing; an estimator that had input and gave
     // nothing for a fault is a warning. A replay that estimated nothing at all fails (status 1)
     // with one error line that carries the reasons.

@@ -16,19 +16,9 @@
 
 #include "core/channels.hpp"
 #include "core/node.hpp"
+#include "core/tag_filter.hpp"
 
 namespace ips::replay {
-
-namespace {
-// The site's anchors and reference stations: senders that are no tag, always taken (as
-// core/tag_filter.hpp does live).
-std::vector<std::string> not_tags(const Site& site) {
-  std::vector<std::string> ids;
-  for (const auto& a : site.anchors) ids.push_back(a.id);
-  for (const auto& st : site.baro_stations) ids.push_back(st.id);
-  return ids;
-}
-}  // namespace
 
 namespace {
 // Steps per batch handed to the second thread, and batches queued at most.
@@ -350,7 +340,7 @@ void ReplayHost::run(const Step& s, const uint8_t* data) {
       feed_zones_from_log(channel, data, s.size);
       break;
     case Op::kSite:
-      stage_tags_.set_always_selected(not_tags(*sites_[s.offset]));
+      stage_tags_.set_always_selected(site_non_tag_ids(*sites_[s.offset]));
       if (fuse_) fuse_->set_site(*sites_[s.offset]);
       if (zones_) zones_->set_site(*sites_[s.offset]);
       break;
@@ -489,7 +479,7 @@ void ReplayHost::feed_fuse_from_log(const std::string& channel, const uint8_t* d
 
 void ReplayHost::apply_site(const Site& site) {
   site_applied_ = true;
-  tags_.set_always_selected(not_tags(site));
+  tags_.set_always_selected(site_non_tag_ids(site));
   if (twr_) twr_->set_site(site);
   if (tdoa_) tdoa_->set_site(site);
   if (aoa_) aoa_->set_site(site);

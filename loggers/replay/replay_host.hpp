@@ -125,6 +125,8 @@ class ReplayHost {
   // Why the replay estimated nothing, in one line: the log holds input for no hosted estimator,
   // or none of them gave an estimate. "" when one did.
   std::string nothing_estimated() const;
+  // The tags the hosted estimators take (--tags, --shard).
+  const TagSelector& tag_selector() const { return tags_; }
   // A site came from --site or a SITE message of the log.
   bool has_site() const { return site_applied_; }
   // Names of the estimators hosted, and of every estimator that can be.
@@ -148,11 +150,11 @@ class ReplayHost {
   void apply_site(const Site& site);
   // Whether a message of this tag is for the hosted estimators (--tags, --shard); false counts
   // it. One selector per stage: each remembers its decisions.
-  bool take(const std::string& id) { return take(tags_, id); }
-  bool stage_take(const std::string& id) { return take(stage_tags_, id); }
-  bool take(TagSelector& sel, const std::string& id) {
+  bool take(const std::string& id) { return take(tags_, id, stats_.skipped_other_tags); }
+  bool stage_take(const std::string& id) { return take(stage_tags_, id, stage_skipped_); }
+  static bool take(TagSelector& sel, const std::string& id, int64_t& skipped) {
     if (sel.selects_all() || sel.selects(id)) return true;
-    ++(&sel == &tags_ ? stats_.skipped_other_tags : stage_skipped_);
+    ++skipped;
     return false;
   }
   // A log event for the hosted ips-zones: its poses, ALTITUDE, HEALTH.
