@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <optional>
 #include <string>
 #include <utility>
@@ -63,10 +64,18 @@ bool FuseEstimator::accept_displacement(const std::string& tag_id, Track& t,
 
 std::string FuseEstimator::run_notes() const {
   std::string s;
-  for (const auto& [key, ignored] : ignored_) {
-    s += s.empty() ? "" : "; ";
-    s += ignored_text(key.first, ignored.used, key.second, ignored.count);
-  }
+  auto add = [&s](const std::string& text) { s += (s.empty() ? "" : "; ") + text; };
+  for (const auto& [key, ignored] : ignored_)
+    add(ignored_text(key.first, ignored.used, key.second, ignored.count));
+  // Estimates that were off for a while, as HEALTH says them live: how often, and the last.
+  auto restarts = [&add](int64_t n, const char* what, const std::string& last) {
+    if (n > 0) add(std::to_string(n) + " " + what + (last.empty() ? "" : ", the last: " + last));
+  };
+  restarts(stats_.gap_restarts, "track(s) restarted after a gap", last_gap_);
+  restarts(stats_.prior_refuted, "start(s) from a prior refuted by the first measurements", "");
+  restarts(stats_.lost_restarts, "track(s) that had lost their tag restarted", last_lost_);
+  restarts(stats_.source_restarts, "dead-reckoning source restart(s), their jump not used",
+           last_source_restart_);
   return s;
 }
 
@@ -99,11 +108,45 @@ void FuseEstimator::on_dead_reckoning(const pose_t& m, DisplacementSource src, u
   d.t = m.utime;
   d.vec = p - t->last_dr_position;
   d.source = bit;
-  t->dr_bit = bit;
   t->last_dr_t = m.utime;
   t->last_dr_position = p;
+  if (t->initialised && source_restarted(m.tag_id, *t, d, src)) return;  // re-anchored at p
+  t->dr_bit = bit;
   if (t->initialised) add(m.tag_id, *t, std::move(d));
   else if (!t->ever_started || !t->absolute_seen) start(m.tag_id, *t, m.utime, p, params_.start_sigma_m, true);
+}
+
+bool FuseEstimator::source_restarted(const std::string& tag_id, const Track& t,
+                                     const Measurement& d, DisplacementSource src) {
+  // A source that restarts (a foot-INS module rebooted, a simulator restarted with its module)
+  // reports positions from a new origin: the step from its last position before to its first
+  // after is no displacement of the tag, and taken as one it threw the track metres off, and the
+  // heading bias with it (issue 26's soak). A displacement the track's own motion cannot explain
+  // is taken for that: further than the track's speed carries it in the time, by more than 1 m
+  // and 3 sigma of what the speed and the acceleration noise allow. Only the length is judged,
+  // not the direction (a walker turns a corner between two of a module's 2 Hz positions).
+  // Nothing of that displacement is used; the source's positions are taken from the new origin
+  // on (`source_restarts`, said in HEALTH). Missing one displacement costs little: the ranges
+  // and the constant-velocity model carry the track over it.
+  constexpr double kMinExcessM = 1.0;
+  const FuseFilter& f = t.state.filter;
+  const double dt = utime_to_s(d.t - d.t0);
+  const double moved = d.vec.head<2>().norm();
+  const double speed = f.x.segment<2>(kVel).norm();
+  const double speed_sigma = std::sqrt(std::max(0.0, f.P(kVel, kVel) + f.P(kVel + 1, kVel + 1)));
+  const double sigma = speed_sigma * dt + std::sqrt(params_.accel_psd * dt * dt * dt / 3.0) +
+                       std::max(params_.displacement_sigma_min_m,
+                                params_.displacement_sigma_per_m * moved);
+  const double excess = moved - speed * dt;
+  if (excess <= std::max(kMinExcessM, 3.0 * sigma)) return false;
+  ++stats_.source_restarts;
+  char text[240];
+  std::snprintf(text, sizeof text,
+                "%s moved %.1f m in %.1f s, the track %.1f m: taken for the source restarting "
+                "(a new origin), not a displacement",
+                displacement_channel(src), moved, dt, speed * dt);
+  last_source_restart_ = printable(tag_id) + ": " + text;
+  return true;
 }
 
 void FuseEstimator::on_ins_module(const pose_t& m) {

@@ -144,6 +144,9 @@ struct FuseStats {
   // Running tracks restarted at a fix of their ranges, which agreed among themselves on a place
   // the track was not while it gated them (check_against_ranges).
   int64_t lost_restarts = 0;
+  // Dead-reckoning positions that jumped further than the track's motion explains, taken for
+  // the source restarting from a new origin: not used as a displacement, re-anchored there.
+  int64_t source_restarts = 0;
   int64_t poses_out = 0;
 };
 
@@ -183,12 +186,17 @@ class FuseEstimator {
 
   const FuseStats& stats() const { return stats_; }
   // The run in words, for ips-replay's summary: each tag's unused dead-reckoning sources
-  // ("T1: using INS_MODULE for displacements, ignored 60 STEP"); "" when there were none.
+  // ("T1: using INS_MODULE for displacements, ignored 60 STEP") and the tracks restarted
+  // because their estimates were off ("1 track(s) that had lost their tag restarted, the last:
+  // T1: ..."); "" when there were none.
   std::string run_notes() const;
   // The last restart after a gap, in words ("T1: 9.6 s without input, ..."); "" before one.
   const std::string& last_gap() const { return last_gap_; }
   // The last track restarted at its ranges' fix (lost_restarts), as "T1: track 5.2 m from ...".
   const std::string& last_lost() const { return last_lost_; }
+  // The last dead-reckoning source taken for restarted (source_restarts), as "T1: INS_MODULE
+  // moved 4.6 m in 1.0 s, the track 1.0 m: ...".
+  const std::string& last_source_restart() const { return last_source_restart_; }
   // Time plausibility of the inputs, per tag (core/time_guard.hpp).
   const TimeGuardStats& time_stats() const { return guard_.stats(); }
   // The newest time of the angles taken (0 before the first): ips-fuse's epoch flush runs from it.
@@ -351,6 +359,9 @@ class FuseEstimator {
   // Whether the tag's displacements come from `src`; the others are counted in
   // ignored_other_source and noted once per tag and source.
   bool accept_displacement(const std::string& tag_id, Track& t, DisplacementSource src);
+  // A displacement d the track's motion cannot explain: its source restarted (counted, said).
+  bool source_restarted(const std::string& tag_id, const Track& t, const Measurement& d,
+                        DisplacementSource src);
   // UWB_RX and BLE_AOA go through the hosted estimators, which need the site: counted when none.
   bool have_site_for_raw();
   void on_tdoa_epoch(const uwb_tdoa::TdoaEpoch& e);
@@ -377,6 +388,7 @@ class FuseEstimator {
   FuseStats stats_;
   std::string last_gap_;
   std::string last_lost_;
+  std::string last_source_restart_;
   // Per tag and ignored dead-reckoning source: the source used instead when it was first ignored
   // (the note), and how many were ignored.
   struct IgnoredSource {

@@ -49,30 +49,28 @@ int main(int argc, char** argv) {
     // Inputs that were not fused, by reason, in HEALTH (drops, last_error) once a second.
     ips::DropHealth drop_health;
     ips::ConsistencyHealth consistency_health;
-    int64_t gap_restarts = 0, prior_refuted = 0, lost_restarts = 0;
+    // A track's estimates that were off, and why, in HEALTH's last_error when its counter grew:
+    //  - a track restarted after a gap (the process stopped, the machine swapped, the tag out
+    //    of reach), the pose flagged REINITIALISED;
+    //  - a start from the site's start pose or a dead-reckoning position that the first ranges
+    //    or angles refuted (this process started mid-walk);
+    //  - a running track that had lost its tag (gating ranges that agreed on another place);
+    //  - a dead-reckoning source that restarted from a new origin (its jump not taken).
+    struct Reported {
+      int64_t seen = 0;
+      bool grew(int64_t now) { return now > seen ? (seen = now, true) : false; }
+    } gap_restarts, prior_refuted, lost_restarts, source_restarts;
     node.add_timer(1.0, [&] {
       drop_health.report(node, est.drop_reasons());
       consistency_health.report(node, est.consistency());
-      // A track restarted after a gap (the process stopped, the machine swapped, the tag out of
-      // reach): said in HEALTH, the pose flagged REINITIALISED.
-      if (est.stats().gap_restarts > gap_restarts) {
-        gap_restarts = est.stats().gap_restarts;
-        node.report_error(est.last_gap());
-      }
-      // A start from the site's start pose or a dead-reckoning position that the first ranges or
-      // angles refuted (this process started mid-walk): its estimates were off until then.
-      if (est.stats().prior_refuted > prior_refuted) {
-        prior_refuted = est.stats().prior_refuted;
-        node.report_error(std::to_string(prior_refuted) +
+      const ips::fusion::FuseStats& s = est.stats();
+      if (gap_restarts.grew(s.gap_restarts)) node.report_error(est.last_gap());
+      if (prior_refuted.grew(s.prior_refuted))
+        node.report_error(std::to_string(s.prior_refuted) +
                           " track start(s) from a prior (the site's start pose or a "
                           "dead-reckoning position) refuted by the first measurements; started afresh");
-      }
-      // A running track that had lost its tag (gating ranges that agreed on another place):
-      // its estimates were off until then.
-      if (est.stats().lost_restarts > lost_restarts) {
-        lost_restarts = est.stats().lost_restarts;
-        node.report_error(est.last_lost());
-      }
+      if (lost_restarts.grew(s.lost_restarts)) node.report_error(est.last_lost());
+      if (source_restarts.grew(s.source_restarts)) node.report_error(est.last_source_restart());
     });
     node.subscribe<ips::uwb_range_t>(opts.channel(ips::channel::kUwbRange),
                                      [&](const ips::uwb_range_t& m, const std::string&) {
