@@ -110,7 +110,16 @@ void FuseEstimator::on_dead_reckoning(const pose_t& m, DisplacementSource src, u
   d.source = bit;
   t->last_dr_t = m.utime;
   t->last_dr_position = p;
-  if (t->initialised && source_restarted(m.tag_id, *t, d, src)) return;  // re-anchored at p
+  if (t->initialised && source_restarted(m.tag_id, *t, d, src)) {
+    // Re-anchored at p (above); its frame is new too, its heading unknown again (a module
+    // restarts with its initial heading error, not with the drift it had reached).
+    Measurement frame;
+    frame.kind = Measurement::Kind::kFrame;
+    frame.t = m.utime;
+    frame.source = bit;
+    add(m.tag_id, *t, std::move(frame));
+    return;
+  }
   t->dr_bit = bit;
   if (t->initialised) add(m.tag_id, *t, std::move(d));
   else if (!t->ever_started || !t->absolute_seen) start(m.tag_id, *t, m.utime, p, params_.start_sigma_m, true);
@@ -233,6 +242,15 @@ void FuseEstimator::predict(const Track& t, Snapshot& s, utime_t to) const {
   }
   if (cursor < to) cv(cursor, to);
   s.t = to;
+}
+
+void FuseEstimator::new_frame(FuseFilter& f) const {
+  // As start() sets it: the bias unknown within heading_bias_sigma_deg, uncorrelated.
+  const double bias_sigma = deg_to_rad(params_.heading_bias_sigma_deg);
+  f.x(kPsi) = 0.0;
+  f.P.row(kPsi).setZero();
+  f.P.col(kPsi).setZero();
+  f.P(kPsi, kPsi) = std::max(bias_sigma * bias_sigma, 1e-12);
 }
 
 void FuseEstimator::apply_displacement(Track& t, const Measurement& m, bool live) {

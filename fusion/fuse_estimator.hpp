@@ -234,7 +234,9 @@ class FuseEstimator {
     std::array<aoa::BearingObservation, kMaxAngles> angle;  // frame pointers not kept
   };
   struct Measurement {
-    enum class Kind { kRange, kHeight, kPosition, kDisplacement, kTdoa, kAngles } kind =
+    // kFrame: the tag's dead-reckoning source restarted in a new frame (source_restarted): from
+    // `t` on, the heading bias is unknown again.
+    enum class Kind { kRange, kHeight, kPosition, kDisplacement, kTdoa, kAngles, kFrame } kind =
         Kind::kRange;
     utime_t t = 0;
     utime_t t0 = 0;  // displacement: the start of its interval
@@ -350,6 +352,7 @@ class FuseEstimator {
   void apply_position(Track& t, Snapshot& s, const Measurement& m, bool live);  // fuse_poses.cpp
   // A displacement moved the state in predict() (fuse_displacements.cpp): counted here.
   void apply_displacement(Track& t, const Measurement& m, bool live);
+  void new_frame(FuseFilter& f) const;  // a restarted dead-reckoning source's heading bias
   // An absolute measurement accepted or gated: after reinit_after_rejections gated in a row
   // the track is widened.
   // (`widen`: false where check_against_ranges judges the track instead.)

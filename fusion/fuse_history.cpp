@@ -24,7 +24,8 @@ void FuseEstimator::add(const std::string& tag_id, Track& t, Measurement m) {
     return;
   }
   t.newest = std::max(t.newest, m.t);
-  if (m.kind != Measurement::Kind::kDisplacement) t.absolute_seen = true;
+  if (m.kind != Measurement::Kind::kDisplacement && m.kind != Measurement::Kind::kFrame)
+    t.absolute_seen = true;
   // In time order into the history.
   const size_t index = t.history.upper_bound(m.t, [](const Measurement& h) { return h.t; });
   t.history.insert(index, std::move(m));
@@ -71,6 +72,7 @@ void FuseEstimator::apply(Track& t, Snapshot& s, const Measurement& m, bool live
     case Measurement::Kind::kHeight: apply_height(t, s, m, live); break;
     case Measurement::Kind::kPosition: apply_position(t, s, m, live); break;
     case Measurement::Kind::kDisplacement: apply_displacement(t, m, live); break;
+    case Measurement::Kind::kFrame: new_frame(s.filter); break;
   }
 }
 

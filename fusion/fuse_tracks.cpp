@@ -97,12 +97,11 @@ void FuseEstimator::start(const std::string& tag_id, Track& t, utime_t time,
   f.planar = planar_for(tag_id);
   f.x.head<3>() = p;
   f.P.setZero();
-  const double bias_sigma = deg_to_rad(params_.heading_bias_sigma_deg);
   for (int i = 0; i < 3; ++i) {
     f.P(i, i) = sigma_m * sigma_m;
     f.P(kVel + i, kVel + i) = 1.0;
   }
-  f.P(kPsi, kPsi) = std::max(bias_sigma * bias_sigma, 1e-12);
+  new_frame(f);  // the heading bias of the dead-reckoning source unknown
   if (f.planar) {
     f.x(2) = tag_height(tag_id);
     f.P(2, 2) = kPlanarVar;
