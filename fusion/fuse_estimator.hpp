@@ -277,7 +277,7 @@ class FuseEstimator {
     Eigen::Vector3d last_dr_position = Eigen::Vector3d::Zero();
     // The last ranges: a multilateration start is waited for from them, and a running track
     // checked against them.
-    std::deque<Measurement> init_ranges;
+    std::deque<Measurement> recent_ranges;
     utime_t waiting_since = 0;            // the first range of the wait (0: not waiting)
     int gated_since_check = 0;            // ranges gated since the last check_against_ranges
     utime_t last_lost_check = 0;

@@ -46,8 +46,8 @@ void FuseEstimator::on_range(const uwb_range_t& m) {
   learn_offsets(*t, r);
   // The pair's offset off before use: the gate judges what is left (an antenna delay is not NLOS).
   r.value -= t->offsets.offset_m(static_cast<size_t>(r.anchor));
-  t->init_ranges.push_back(r);
-  if (t->init_ranges.size() > 64) t->init_ranges.pop_front();
+  t->recent_ranges.push_back(r);
+  if (t->recent_ranges.size() > 64) t->recent_ranges.pop_front();
   if (!t->initialised) {
     try_start_from_ranges(m.tag_id, *t);
     if (!t->initialised) ++stats_.waiting_start;

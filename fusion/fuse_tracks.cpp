@@ -69,7 +69,7 @@ FuseEstimator::Track* FuseEstimator::find_or_add_track(const std::string& tag_id
     track.initialised = false;
     track.history.clear();
     track.snapshots.clear();
-    track.init_ranges.clear();
+    track.recent_ranges.clear();
     track.waiting_since = 0;
     track.have_last_dr = false;
     ++stats_.gap_restarts;
@@ -117,7 +117,7 @@ void FuseEstimator::start(const std::string& tag_id, Track& t, utime_t time,
   t.base = t.state;
   t.history.clear();
   t.snapshots.clear();
-  t.init_ranges.clear();
+  t.recent_ranges.clear();
   t.waiting_since = 0;
   t.newest = std::max(t.newest, time);
   t.tally.restart(0, 0);
@@ -126,14 +126,14 @@ void FuseEstimator::start(const std::string& tag_id, Track& t, utime_t time,
 
 std::optional<FuseEstimator::RangeFix> FuseEstimator::fix_from_ranges(const std::string& tag_id,
                                                                      Track& t) {
-  if (t.init_ranges.empty()) return std::nullopt;
-  const utime_t newest = t.init_ranges.back().t;
-  while (!t.init_ranges.empty() &&
-         t.init_ranges.front().t < newest - s_to_utime(params_.epoch_window_s))
-    t.init_ranges.pop_front();
+  if (t.recent_ranges.empty()) return std::nullopt;
+  const utime_t newest = t.recent_ranges.back().t;
+  while (!t.recent_ranges.empty() &&
+         t.recent_ranges.front().t < newest - s_to_utime(params_.epoch_window_s))
+    t.recent_ranges.pop_front();
   // The newest range of each anchor.
   std::map<int, double> latest;
-  for (const auto& m : t.init_ranges) latest[m.anchor] = m.value;
+  for (const auto& m : t.recent_ranges) latest[m.anchor] = m.value;
   const bool planar = planar_for(tag_id);
   const int needed = planar ? 3 : 4;
   // As ips-uwb-twr: for the first second of waiting (and two epochs) one range more than a fix
@@ -141,7 +141,7 @@ std::optional<FuseEstimator::RangeFix> FuseEstimator::fix_from_ranges(const std:
   // from the bare minimum nothing tells a 1.3 m long range, and the start would be that far off
   // with the geometry's small sigma. A running track's check (check_against_ranges) always
   // needs the spare range.
-  if (!t.initialised && t.waiting_since == 0) t.waiting_since = t.init_ranges.front().t;
+  if (!t.initialised && t.waiting_since == 0) t.waiting_since = t.recent_ranges.front().t;
   int required = needed, enabled_uwb_anchors = 0;
   for (const auto& a : site_->anchors) enabled_uwb_anchors += a.enabled && a.kind == "uwb";
   if (t.initialised || newest - t.waiting_since <
@@ -192,12 +192,12 @@ void FuseEstimator::check_against_ranges(const std::string& tag_id, Track& t) {
   constexpr int kLostChecks = 3;
   constexpr double kChi2 = 13.8;     // 2 degrees of freedom, 99.9 %
   constexpr double kMinJumpM = 0.5;  // never for less: the ranges of a moving tag spread so
-  if ((t.gated_since_check == 0 && !t.prior_unchecked) || t.init_ranges.empty() ||
-      t.init_ranges.back().t - t.last_lost_check < s_to_utime(kLostCheckS))
+  if ((t.gated_since_check == 0 && !t.prior_unchecked) || t.recent_ranges.empty() ||
+      t.recent_ranges.back().t - t.last_lost_check < s_to_utime(kLostCheckS))
     return;
   const auto fix = fix_from_ranges(tag_id, t);
   if (t.prior_unchecked && (!fix || !fix->checked)) return;  // at the next range again
-  t.last_lost_check = t.init_ranges.back().t;
+  t.last_lost_check = t.recent_ranges.back().t;
   t.gated_since_check = 0;
   if (!fix || !fix->checked) {
     t.lost_checks = 0;

@@ -68,7 +68,8 @@ int main(int argc, char** argv) {
       if (prior_refuted.grew(s.prior_refuted))
         node.report_error(std::to_string(s.prior_refuted) +
                           " track start(s) from a prior (the site's start pose or a "
-                          "dead-reckoning position) refuted by the first measurements; started afresh");
+                          "dead-reckoning position) refuted by the first measurements; started "
+                          "afresh");
       if (lost_restarts.grew(s.lost_restarts)) node.report_error(est.last_lost());
       if (source_restarts.grew(s.source_restarts)) node.report_error(est.last_source_restart());
     });
