@@ -36,6 +36,9 @@ enum class DropReason : uint8_t {
   kNoFix,                    // a solver found no position, or one with too poor geometry
   kSuperseded,               // a pose whose raw measurements the estimator fuses itself
   kSurveyRange,              // an anchor-to-anchor range (survey input), not a tag's
+  // A sample of a stream (IMU) that came after a later one, within the reorder tolerance: the
+  // next sample's interval covers its own (a LAN reorders datagrams now and then).
+  kReordered,
   kCount
 };
 
@@ -64,6 +67,7 @@ constexpr std::string_view drop_reason_text(DropReason r) {
     case DropReason::kNoFix: return "no fix";
     case DropReason::kSuperseded: return "superseded by fused measurements";
     case DropReason::kSurveyRange: return "anchor-to-anchor range";
+    case DropReason::kReordered: return "reordered sample";
     case DropReason::kCount: break;
   }
   return "?";
@@ -81,7 +85,8 @@ constexpr bool drop_reason_is_routine(DropReason r) {
     case DropReason::kTooFewAnchors:
     case DropReason::kNoFix:
     case DropReason::kSuperseded:
-    case DropReason::kSurveyRange: return true;
+    case DropReason::kSurveyRange:
+    case DropReason::kReordered: return true;
     default: return false;
   }
 }

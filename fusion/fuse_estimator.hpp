@@ -127,7 +127,11 @@ struct FuseStats {
   int64_t dropped_unknown_anchor = 0;
   int64_t dropped_late = 0;          // more than max_delay_s behind the tag's newest
   int64_t dropped_imu_repeated = 0;  // an IMU sample at the time of the previous one (a duplicate)
-  int64_t dropped_imu_late = 0;      // an IMU sample before the previous one (reordered)
+  // An IMU sample before the previous one: within max_delay_s of it, reordered on the way (a
+  // LAN does that now and then; the next sample's interval covers it, routine); further back,
+  // late.
+  int64_t dropped_imu_reordered = 0;
+  int64_t dropped_imu_late = 0;
   int64_t dropped_no_site = 0;
   int64_t dropped_too_many_tags = 0;
   // Displacements of a tag's other dead-reckoning sources (one is used per tag: the first heard,

@@ -233,19 +233,27 @@ TEST(FuseEstimatorRx, BlinksBeforeASiteAreCountedAndPoseTdoaIsSupersededOnlyOnce
   est.on_imu(imu);
   EXPECT_EQ(est.stats().dropped_invalid, 1);
   EXPECT_EQ(est.stats().imu_used, 0);
-  // A sample repeated (a LAN's duplicate) or older than the newest (reordered) is not invalid.
+  // A sample repeated (a LAN's duplicate) or older than the newest (reordered) is not invalid;
+  // reordered within max_delay_s (1 s) it is routine, further back late (a fault).
   imu.gyro[2] = 0.1;
   imu.accel[2] = 9.81;
   est.on_imu(imu);
   EXPECT_EQ(est.stats().imu_used, 1);
+  const int64_t faults_before = est.drop_reasons().faults();
   est.on_imu(imu);
   imu.utime -= 10000;
   est.on_imu(imu);
   EXPECT_EQ(est.stats().imu_used, 1);
   EXPECT_EQ(est.stats().dropped_invalid, 1);
   EXPECT_EQ(est.stats().dropped_imu_repeated, 1);
-  EXPECT_EQ(est.stats().dropped_imu_late, 1);
+  EXPECT_EQ(est.stats().dropped_imu_reordered, 1);
   EXPECT_EQ(est.drop_reasons().count(DropReason::kDuplicate), 1);
+  EXPECT_EQ(est.drop_reasons().count(DropReason::kReordered), 1);
+  EXPECT_EQ(est.drop_reasons().faults(), faults_before);  // not degraded for it
+  imu.utime -= s_to_utime(1.5);
+  est.on_imu(imu);
+  EXPECT_EQ(est.stats().dropped_imu_late, 1);
+  EXPECT_EQ(est.drop_reasons().faults(), faults_before + 1);
 }
 
 }  // namespace
