@@ -306,6 +306,7 @@ int Node::run() {
 void Node::report_error(const std::string& text) {
   last_error_ = text;
   last_error_at_ = std::chrono::steady_clock::now();
+  degradation_published_ = false;
   if (state_ == health_t::STATE_OK) {
     state_ = health_t::STATE_DEGRADED;
     degraded_by_error_ = true;
@@ -340,7 +341,9 @@ std::string Node::note() const {
 }
 
 void Node::publish_health() {
-  if (degraded_by_error_ &&
+  // A degradation ends once the hold has passed and a HEALTH has said it: a process stalled past
+  // the hold (a loaded machine, SIGSTOP) still shows the error it reported.
+  if (degraded_by_error_ && degradation_published_ &&
       std::chrono::duration<double>(std::chrono::steady_clock::now() - last_error_at_).count() >=
           degraded_hold_s_) {
     state_ = health_t::STATE_OK;
@@ -363,6 +366,7 @@ void Node::publish_health() {
   h.host = host_;
   h.pid = static_cast<int32_t>(getpid());
   h.state = state();
+  degradation_published_ = true;
   h.msgs_in = counters_.msgs_in;
   h.msgs_out = counters_.msgs_out;
   h.parse_errors = counters_.parse_errors;

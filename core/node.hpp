@@ -153,8 +153,9 @@ class Node {
   }
   // An estimator's innovation check for HEALTH's `consistency` (core/consistency.hpp).
   void set_consistency(std::string text) { consistency_ = std::move(text); }
-  // How long a reported error keeps the process degraded (3 s: a transient fault shows in a few
-  // HEALTH reports, and a process is OK again soon after it ends; docs/reliability.md).
+  // How long a reported error keeps the process degraded (2 s: a transient fault shows in two
+  // HEALTH reports, at least one however late they come, and a process is OK again soon after it
+  // ends; docs/reliability.md).
   void set_degraded_hold(double seconds) { degraded_hold_s_ = seconds; }
   void publish_health();
 
@@ -204,10 +205,11 @@ class Node {
   std::string last_error_;
   std::string consistency_;
   bool degraded_by_error_ = false;  // state_ is DEGRADED because of report_error()
+  bool degradation_published_ = true;  // a HEALTH has said so since the last report_error()
   std::set<std::string> lasting_;  // report_lasting_error() keys not ended yet
   std::map<std::string, std::string> notes_;  // report_note() by key
   std::chrono::steady_clock::time_point last_error_at_;
-  double degraded_hold_s_ = 3.0;
+  double degraded_hold_s_ = 2.0;
   std::string health_channel_;
   std::string host_;
   std::chrono::steady_clock::time_point start_time_;

@@ -190,6 +190,25 @@ TEST(Node, DegradedByAnErrorReturnsToOkAfterTheHoldButAStateSetByHandStays) {
   EXPECT_EQ(publish().state, health_t::STATE_STARTING);
 }
 
+TEST(Node, AnErrorIsShownInAHealthReportEvenWhenTheReportComesAfterTheHold) {
+  // A process stalled past the hold (SIGSTOP, a loaded machine) still says what it reported:
+  // the first HEALTH after the error is degraded however late it comes, the next one is OK.
+  Node node("stalled", memq());
+  node.set_degraded_hold(0.05);
+  std::vector<health_t> health;
+  node.subscribe<health_t>("HEALTH", [&](const health_t& h, const std::string&) { health.push_back(h); });
+  const auto publish = [&] {
+    node.publish_health();
+    node.spin_once(50);
+    return health.back();
+  };
+  node.report_error("a bad message");
+  std::this_thread::sleep_for(std::chrono::milliseconds(120));
+  EXPECT_EQ(publish().state, health_t::STATE_DEGRADED);
+  EXPECT_EQ(publish().state, health_t::STATE_OK);
+  EXPECT_EQ(health.back().last_error, "a bad message");
+}
+
 TEST(Node, TimerFires) {
   Node node("t", memq());
   int ticks = 0;
