@@ -71,7 +71,11 @@ struct InsStats {
   int64_t samples_in = 0;
   int64_t samples_used = 0;          // integrated, or used for the alignment
   int64_t dropped_invalid = 0;       // NaN/inf or absurd accelerometer or gyro, implausible utime
-  int64_t dropped_out_of_order = 0;  // utime not after the tag's previous sample
+  // A sample not after the tag's previous one: at its time (a LAN's duplicate), before it within
+  // max_gap_s (reordered on the way: the next interval covers it, routine), or further back.
+  int64_t dropped_repeated = 0;
+  int64_t dropped_reordered = 0;
+  int64_t dropped_out_of_order = 0;
   int64_t dropped_no_site = 0;
   int64_t dropped_too_many_tags = 0;
   int64_t gaps = 0;  // more than max_gap_s between two samples: not integrated
@@ -91,6 +95,8 @@ struct InsStats {
     DropReasons d;
     d.add(DropReason::kNoSite, dropped_no_site);
     d.add(DropReason::kInvalid, dropped_invalid);
+    d.add(DropReason::kDuplicate, dropped_repeated);
+    d.add(DropReason::kReordered, dropped_reordered);
     d.add(DropReason::kLate, dropped_out_of_order);
     d.add(DropReason::kTooManyTags, dropped_too_many_tags);
     d.add(DropReason::kGap, gaps);

@@ -92,7 +92,11 @@ PdrParams parse_pdr_params(const YamlField& section);
 struct PdrStats {
   int64_t samples_in = 0;
   int64_t dropped_invalid = 0;     // NaN accelerometer or gyroscope, implausible utime
-  int64_t dropped_time = 0;        // not after the device's previous sample
+  // Not after the device's previous sample: at its time (a LAN's duplicate), before it within
+  // max_gap_s (reordered on the way: the next interval covers it, routine), or further back.
+  int64_t dropped_repeated = 0;
+  int64_t dropped_reordered = 0;
+  int64_t dropped_time = 0;
   int64_t gaps = 0;                // samples after a gap longer than max_gap_s
   int64_t dropped_gap = 0;         // of those, samples of an aligned track: not integrated
   int64_t samples_aligning = 0;    // taken while aligning and lost (buffer full, IMU refused)
@@ -117,6 +121,8 @@ struct PdrStats {
     DropReasons d;
     d.add(DropReason::kNoSite, dropped_no_site);
     d.add(DropReason::kInvalid, dropped_invalid);
+    d.add(DropReason::kDuplicate, dropped_repeated);
+    d.add(DropReason::kReordered, dropped_reordered);
     d.add(DropReason::kLate, dropped_time);
     d.add(DropReason::kTooManyTags, dropped_too_many_tags);
     d.add(DropReason::kGap, dropped_gap);

@@ -413,9 +413,17 @@ TEST(InsEstimator, BadSamplesAreCountedAndNeverMoveTheTrack) {
   imu_t nameless = sample(at(k), g, z, "");
   r.est.on_imu(nameless);
   EXPECT_EQ(r.est.stats().dropped_invalid, 5);
-  r.est.on_imu(sample(at(k - 1), g, z));  // time went backwards
-  r.est.on_imu(sample(at(k - 1), g, z));  // a duplicate
-  EXPECT_EQ(r.est.stats().dropped_out_of_order, 2);
+  // The newest sample is at(k - 1). One at its time is a duplicate; one before it within
+  // max_gap_s (0.1 s) reordered on the way, routine (the next interval covers it); one further
+  // back is late, a fault.
+  r.est.on_imu(sample(at(k - 1), g, z));
+  r.est.on_imu(sample(at(k - 3), g, z));
+  r.est.on_imu(sample(at(k - 60), g, z));
+  EXPECT_EQ(r.est.stats().dropped_repeated, 1);
+  EXPECT_EQ(r.est.stats().dropped_reordered, 1);
+  EXPECT_EQ(r.est.stats().dropped_out_of_order, 1);
+  EXPECT_EQ(r.est.stats().drop_reasons().count(DropReason::kReordered), 1);
+  EXPECT_EQ(r.est.stats().drop_reasons().count(DropReason::kLate), 1);
   r.est.on_imu(sample(at(k), g, z, "F2"));  // beyond max_tags
   EXPECT_EQ(r.est.stats().dropped_too_many_tags, 1);
   // A 2 s gap: counted, not integrated (a wild sample after it moves nothing).

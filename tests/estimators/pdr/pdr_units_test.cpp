@@ -349,17 +349,26 @@ TEST(PdrEstimator, BadSamplesAreCountedNotUsed) {
   est.on_imu(m);  // before a site
   est.set_site(parse_site_text("name: s\nanchors: []\ntags:\n  - {id: P1, height_m: 1.1}\n", "s"));
   est.on_imu(m);
-  est.on_imu(m);  // the same time again
+  est.on_imu(m);  // the same time again: a duplicate
   m.utime = kT0 + 10000;
+  est.on_imu(m);
+  m.utime = kT0 + 5000;  // reordered on the way, within max_gap_s (0.5 s): routine
+  est.on_imu(m);
+  m.utime = kT0 - 1000000;  // a second back: late
+  est.on_imu(m);
+  m.utime = kT0 + 20000;
   m.gyro[0] = NAN;
   est.on_imu(m);
   m.gyro[0] = 0;
   m.device_id = "";
   est.on_imu(m);
   const PdrStats& s = est.stats();
-  EXPECT_EQ(s.samples_in, 5);
+  EXPECT_EQ(s.samples_in, 8);
   EXPECT_EQ(s.dropped_no_site, 1);
+  EXPECT_EQ(s.dropped_repeated, 1);
+  EXPECT_EQ(s.dropped_reordered, 1);
   EXPECT_EQ(s.dropped_time, 1);
+  EXPECT_EQ(s.drop_reasons().faults(), s.dropped_no_site + s.dropped_time + s.dropped_invalid);
   EXPECT_EQ(s.dropped_invalid, 2);
   EXPECT_EQ(poses, 0);
 }
