@@ -91,6 +91,17 @@ constexpr bool drop_reason_is_routine(DropReason r) {
   }
 }
 
+// A stream's sample (IMU) at or before the newest one taken, counted by how far out of turn it
+// came (times in µs): at the newest's time a duplicate (a LAN repeats datagrams); before it within
+// `tolerance` reordered on the way (kReordered, routine: the next sample's interval covers it);
+// further back late (kLate, a fault).
+inline void count_out_of_turn(int64_t utime, int64_t newest, int64_t tolerance, int64_t& repeated,
+                              int64_t& reordered, int64_t& late) {
+  if (utime == newest) ++repeated;
+  else if (newest - utime <= tolerance) ++reordered;
+  else ++late;
+}
+
 class DropReasons {
  public:
   static constexpr size_t kNumReasons = static_cast<size_t>(DropReason::kCount);

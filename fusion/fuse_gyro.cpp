@@ -18,9 +18,8 @@ void FuseEstimator::on_imu(const imu_t& m) {
   // fault. The soak's switch reorders 0.2 % of datagrams, and those counted as late kept
   // ips-fuse degraded.
   if (const utime_t newest = t->gyro.newest(); newest != 0 && m.utime <= newest) {
-    if (m.utime == newest) ++stats_.dropped_imu_repeated;
-    else if (newest - m.utime <= s_to_utime(params_.max_delay_s)) ++stats_.dropped_imu_reordered;
-    else ++stats_.dropped_imu_late;
+    count_out_of_turn(m.utime, newest, s_to_utime(params_.max_delay_s), stats_.dropped_imu_repeated,
+                      stats_.dropped_imu_reordered, stats_.dropped_imu_late);
     return;
   }
   if (!t->gyro.add(m.utime, gyro, accel)) {

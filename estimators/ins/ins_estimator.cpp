@@ -160,9 +160,8 @@ void InsEstimator::on_imu(const imu_t& m) {
   }
   Track& t = it->second;
   if (t.last_utime != 0 && m.utime <= t.last_utime) {
-    if (m.utime == t.last_utime) ++stats_.dropped_repeated;
-    else if (t.last_utime - m.utime <= s_to_utime(params_.max_gap_s)) ++stats_.dropped_reordered;
-    else ++stats_.dropped_out_of_order;
+    count_out_of_turn(m.utime, t.last_utime, s_to_utime(params_.max_gap_s), stats_.dropped_repeated,
+                      stats_.dropped_reordered, stats_.dropped_out_of_order);
     return;
   }
   const double dt = t.last_utime != 0 ? utime_to_s(m.utime - t.last_utime) : 0.0;

@@ -170,10 +170,9 @@ void PdrEstimator::on_imu(const imu_t& m) {
     it->second.rest_start = m.utime;
     it->second.accel_only = !has_gyro;
     if (!has_gyro) ++stats_.accel_only_tracks;
-  } else if (const utime_t last = it->second.last_utime; m.utime <= last) {
-    if (m.utime == last) ++stats_.dropped_repeated;
-    else if (last - m.utime <= s_to_utime(params_.max_gap_s)) ++stats_.dropped_reordered;
-    else ++stats_.dropped_time;
+  } else if (m.utime <= it->second.last_utime) {
+    count_out_of_turn(m.utime, it->second.last_utime, s_to_utime(params_.max_gap_s),
+                      stats_.dropped_repeated, stats_.dropped_reordered, stats_.dropped_time);
     return;
   }
   Track& t = it->second;

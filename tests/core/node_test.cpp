@@ -118,16 +118,24 @@ TEST(Node, HealthReportsCountersAndErrors) {
   EXPECT_NE(health[1].version.find(" (git "), std::string::npos) << health[1].version;
 }
 
-TEST(Node, DegradedByAnErrorReturnsToOkAfterTheHoldButAStateSetByHandStays) {
-  Node node("recovering", memq());
-  node.set_degraded_hold(0.2);
-  std::vector<health_t> health;
-  node.subscribe<health_t>("HEALTH", [&](const health_t& h, const std::string&) { health.push_back(h); });
-  const auto publish = [&] {
+// A node that publishes its HEALTH on demand and hands back what came on the bus.
+struct HealthTap {
+  explicit HealthTap(const std::string& name) : node(name, memq()) {
+    node.subscribe<health_t>("HEALTH", [this](const health_t& h, const std::string&) { last = h; });
+  }
+  health_t publish() {
     node.publish_health();
     node.spin_once(50);
-    return health.back();
-  };
+    return last;
+  }
+  Node node;
+  health_t last;
+};
+
+TEST(Node, DegradedByAnErrorReturnsToOkAfterTheHoldButAStateSetByHandStays) {
+  HealthTap tap("recovering");
+  Node& node = tap.node;
+  node.set_degraded_hold(0.2);
   // The hold counts from the latest error: a report 0.24 s after the first error (past the
   // hold) and 0.12 s after the latest (within it) is degraded. A loaded machine can overrun a
   // sleep and put the report past the latest's hold too: then that try proves nothing and is
@@ -138,14 +146,14 @@ TEST(Node, DegradedByAnErrorReturnsToOkAfterTheHoldButAStateSetByHandStays) {
     const Clock::time_point first = Clock::now();
     node.report_error("a bad message");
     const Clock::time_point first_done = Clock::now();
-    const health_t at_once = publish();
+    const health_t at_once = tap.publish();
     const bool at_once_timed = Clock::now() - first < hold;
     std::this_thread::sleep_for(std::chrono::milliseconds(120));
     const Clock::time_point latest = Clock::now();
     node.report_error("another");
     std::this_thread::sleep_for(std::chrono::milliseconds(120));
     const Clock::time_point before = Clock::now();
-    const health_t later = publish();
+    const health_t later = tap.publish();
     if (at_once_timed && before - first_done > hold && Clock::now() - latest < hold) {
       EXPECT_EQ(at_once.state, health_t::STATE_DEGRADED);
       EXPECT_EQ(later.state, health_t::STATE_DEGRADED);
@@ -154,59 +162,53 @@ TEST(Node, DegradedByAnErrorReturnsToOkAfterTheHoldButAStateSetByHandStays) {
     ASSERT_LT(attempt, 50) << "the machine is too loaded to time a 0.2 s hold";
   }
   std::this_thread::sleep_for(std::chrono::milliseconds(150));
-  const health_t back = publish();
+  const health_t back = tap.publish();
   EXPECT_EQ(back.state, health_t::STATE_OK);
   EXPECT_EQ(back.last_error, "another");  // the text stays for the record
   // A driver that says its device is down stays degraded, errors or not.
   node.set_state(health_t::STATE_DEGRADED);
   std::this_thread::sleep_for(std::chrono::milliseconds(250));
-  EXPECT_EQ(publish().state, health_t::STATE_DEGRADED);
+  EXPECT_EQ(tap.publish().state, health_t::STATE_DEGRADED);
   // A lasting error (a device away) does not wear off, nor does set_state() end it: only the
   // end of every such condition does (two devices: one back is not enough).
   node.set_state(health_t::STATE_OK);
   node.report_lasting_error("/dev/ttyACM0", "device /dev/ttyACM0 gone");
   node.report_lasting_error("/dev/ttyACM1", "device /dev/ttyACM1 gone");
   std::this_thread::sleep_for(std::chrono::milliseconds(250));
-  health_t away = publish();
+  health_t away = tap.publish();
   EXPECT_EQ(away.state, health_t::STATE_DEGRADED);
   EXPECT_EQ(away.last_error, "device /dev/ttyACM1 gone");
   node.set_state(health_t::STATE_OK);  // e.g. the site arrived
-  EXPECT_EQ(publish().state, health_t::STATE_DEGRADED);
+  EXPECT_EQ(tap.publish().state, health_t::STATE_DEGRADED);
   node.report_error("a partial line at the unplug");  // degraded by an error meanwhile
   node.end_lasting_error("/dev/ttyACM0");
-  EXPECT_EQ(publish().state, health_t::STATE_DEGRADED);
+  EXPECT_EQ(tap.publish().state, health_t::STATE_DEGRADED);
   node.end_lasting_error("/dev/ttyACM0");  // twice: no harm
   node.end_lasting_error("/dev/ttyACM1");
-  EXPECT_EQ(publish().state, health_t::STATE_OK);  // every device back: the errors end too
+  EXPECT_EQ(tap.publish().state, health_t::STATE_OK);  // every device back: the errors end too
   // A state set by hand is not the lasting conditions' to end.
   node.report_lasting_error("/dev/ttyACM0", "device /dev/ttyACM0 gone");
   node.set_state(health_t::STATE_ERROR);
   node.end_lasting_error("/dev/ttyACM0");
-  EXPECT_EQ(publish().state, health_t::STATE_ERROR);
+  EXPECT_EQ(tap.publish().state, health_t::STATE_ERROR);
   // An error while starting keeps it starting.
   node.set_state(health_t::STATE_STARTING);
   node.report_error("before the site");
   std::this_thread::sleep_for(std::chrono::milliseconds(250));
-  EXPECT_EQ(publish().state, health_t::STATE_STARTING);
+  EXPECT_EQ(tap.publish().state, health_t::STATE_STARTING);
 }
 
 TEST(Node, AnErrorIsShownInAHealthReportEvenWhenTheReportComesAfterTheHold) {
   // A process stalled past the hold (SIGSTOP, a loaded machine) still says what it reported:
   // the first HEALTH after the error is degraded however late it comes, the next one is OK.
-  Node node("stalled", memq());
-  node.set_degraded_hold(0.05);
-  std::vector<health_t> health;
-  node.subscribe<health_t>("HEALTH", [&](const health_t& h, const std::string&) { health.push_back(h); });
-  const auto publish = [&] {
-    node.publish_health();
-    node.spin_once(50);
-    return health.back();
-  };
-  node.report_error("a bad message");
+  HealthTap tap("stalled");
+  tap.node.set_degraded_hold(0.05);
+  tap.node.report_error("a bad message");
   std::this_thread::sleep_for(std::chrono::milliseconds(120));
-  EXPECT_EQ(publish().state, health_t::STATE_DEGRADED);
-  EXPECT_EQ(publish().state, health_t::STATE_OK);
-  EXPECT_EQ(health.back().last_error, "a bad message");
+  EXPECT_EQ(tap.publish().state, health_t::STATE_DEGRADED);
+  const health_t after = tap.publish();
+  EXPECT_EQ(after.state, health_t::STATE_OK);
+  EXPECT_EQ(after.last_error, "a bad message");
 }
 
 TEST(Node, TimerFires) {
