@@ -74,6 +74,10 @@ std::string FuseEstimator::run_notes() const {
   restarts(stats_.gap_restarts, "track(s) restarted after a gap", last_gap_);
   restarts(stats_.prior_refuted, "start(s) from a prior refuted by the first measurements", "");
   restarts(stats_.lost_restarts, "track(s) that had lost their tag restarted", last_lost_);
+  if (stats_.poses_doubted > 0)
+    add(std::to_string(stats_.poses_doubted) +
+        " pose(s) published while a fix of the ranges disagreed, their covariance widened to "
+        "hold it");
   restarts(stats_.source_restarts, "dead-reckoning source restart(s), their jump not used",
            last_source_restart_);
   return s;

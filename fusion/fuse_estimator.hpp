@@ -148,6 +148,9 @@ struct FuseStats {
   // Running tracks restarted at a fix of their ranges, which agreed among themselves on a place
   // the track was not while it gated them (check_against_ranges).
   int64_t lost_restarts = 0;
+  // Poses published while a fix of the ranges far from the track waited for the next ones to
+  // confirm it: their covariance widened to hold the fix (maybe_publish).
+  int64_t poses_doubted = 0;
   // Dead-reckoning positions that jumped further than the track's motion explains, taken for
   // the source restarting from a new origin: not used as a displacement, re-anchored there.
   int64_t source_restarts = 0;
@@ -286,6 +289,8 @@ class FuseEstimator {
     int gated_since_check = 0;            // ranges gated since the last check_against_ranges
     utime_t last_lost_check = 0;
     int lost_checks = 0;                  // checks in a row that found the track far off
+    utime_t last_far_fix = 0;             // the last of them
+    Eigen::Vector2d far_fix_offset = Eigen::Vector2d::Zero();  // its position minus the track's
     utime_t last_checked_fix = 0;         // the last fix of the ranges with a spare range
     bool prior_unchecked = false;         // started from a prior no such fix has checked yet
     utime_t started_at = 0;

@@ -182,14 +182,17 @@ void FuseEstimator::check_against_ranges(const std::string& tag_id, Track& t) {
   // would bring it back. Widening step by step (count_absolute) took seconds of confident
   // estimates metres off. So, at most every kLostCheckS while some ranges are gated: a
   // multilateration of the last epoch's ranges (with a spare range, its residual checked as a
-  // start's is); kLostChecks of them in a row far outside the track's and the fix's uncertainty,
-  // and the track starts afresh at the fix (`lost_restarts`, HEALTH).
+  // start's is); kLostChecks of them within kLostSpanS far outside the track's and the fix's
+  // uncertainty, none agreeing with the track in between, and the track starts afresh at the fix
+  // (`lost_restarts`, HEALTH). Until then the poses published hold the far fix in their
+  // covariance (maybe_publish, `poses_doubted`).
   // A start from a prior (the site's start pose, a dead-reckoning position) is checked the same
   // way by the first such fix, gated or not: one that disagrees refutes the prior at once (a
   // process restarted mid-walk), one that agrees confirms it; unpublished until then
   // (maybe_publish).
   constexpr double kLostCheckS = 0.2;
   constexpr int kLostChecks = 3;
+  constexpr double kLostSpanS = 1.0;  // ... within this
   constexpr double kChi2 = 13.8;     // 2 degrees of freedom, 99.9 %
   constexpr double kMinJumpM = 0.5;  // never for less: the ranges of a moving tag spread so
   if ((t.gated_since_check == 0 && !t.prior_unchecked) || t.recent_ranges.empty() ||
@@ -199,10 +202,11 @@ void FuseEstimator::check_against_ranges(const std::string& tag_id, Track& t) {
   if (t.prior_unchecked && (!fix || !fix->checked)) return;  // at the next range again
   t.last_lost_check = t.recent_ranges.back().t;
   t.gated_since_check = 0;
-  if (!fix || !fix->checked) {
-    t.lost_checks = 0;
-    return;
-  }
+  // No consistent fix (the ranges of the window disagree, or no spare range): neither for the
+  // track nor against it, so a count of far fixes stands. After a jump the ranges of an epoch
+  // often disagree (some from before the jump, offsets learned against the lost track), and
+  // starting the count again at each of those kept the track metres off for 2 s.
+  if (!fix || !fix->checked) return;
   t.last_checked_fix = fix->t;
   const FuseFilter& f = t.state.filter;
   const Eigen::Vector2d d = (fix->position - f.x.head<3>()).head<2>();
@@ -220,6 +224,10 @@ void FuseEstimator::check_against_ranges(const std::string& tag_id, Track& t) {
       t.lost_checks = 0;
       return;
     }
+    // kLostChecks far fixes within kLostSpanS, none agreeing in between.
+    if (t.lost_checks > 0 && fix->t - t.last_far_fix > s_to_utime(kLostSpanS)) t.lost_checks = 0;
+    t.last_far_fix = fix->t;
+    t.far_fix_offset = d;
     if (++t.lost_checks < kLostChecks) return;
     ++stats_.lost_restarts;
     char text[200];
