@@ -68,10 +68,32 @@ TEST(ConsistencyMonitor, TenTimesTooSmallSigmaIsNamedWithinTenSeconds) {
       EXPECT_NEAR(m.variance("BARO", "B1", 0.0025), 0.25, 0.15);
       EXPECT_NE(p.find("learned sigma"), std::string::npos) << p;
     } else {
+      // Named at the first check (10 samples); degraded when the second (20) agrees.
+      EXPECT_FALSE(m.degraded());
+      feed(m, "B1", 3, 1.7, 0.0001, 0.25, 0.0025, rng, 10.0);
       EXPECT_TRUE(m.degraded());
       EXPECT_DOUBLE_EQ(m.variance("BARO", "B1", 0.0025), 0.0025);
     }
   }
+}
+
+// One noisy check among consistent ones (a filter's first second, ten unlucky samples) names
+// the channel but does not degrade the process; the same again at the next check does.
+TEST(ConsistencyMonitor, OneNoisyCheckNamesTheChannelTwoInARowDegrade) {
+  ConsistencyOptions o;
+  o.learn = false;
+  ConsistencyMonitor m(o);
+  auto add = [&](int n, double r, double t0) {
+    for (int i = 0; i < n; ++i) m.add_nis("ANGLE", "B1", t0 + 0.1 * i, r, 1, false);
+  };
+  add(10, 4.0, 0.0);  // NIS 4: 8.8x the chi-square(1) median
+  EXPECT_NE(m.problems().find("ANGLE B1: innovations "), std::string::npos) << m.problems();
+  EXPECT_FALSE(m.degraded());
+  add(10, 0.3, 1.0);  // consistent: the window's median falls, the run of noisy checks ends
+  EXPECT_FALSE(m.degraded());
+  EXPECT_EQ(m.problems(), "");
+  add(30, 4.0, 2.0);
+  EXPECT_TRUE(m.degraded()) << m.problems();
 }
 
 // The learned sigma is said in the setting's own units, whatever the innovations' units: a
