@@ -185,9 +185,25 @@ public class SpyProbe {
     return null;
   }
 
+  /** onEdt for a call that reads lcm-spy's channel table. lcm-spy 1.3.1 adds a new channel's row
+   *  to its model from its LCM thread, and its TableSorter's row map catches up only on the event
+   *  that follows: read in between (a loaded machine makes that likely), the table has one row
+   *  more than the map (ArrayIndexOutOfBoundsException in TableSorter.modelIndex). Such a read is
+   *  made again once the sorter has caught up, at most 50 times 0.1 s apart. */
+  static <T> T onEdtTable(EdtCall<T> c) throws Exception {
+    for (int attempt = 1; ; attempt++) {
+      try {
+        return onEdt(c);
+      } catch (ArrayIndexOutOfBoundsException e) {
+        if (attempt >= 50) throw e;
+        Thread.sleep(100);
+      }
+    }
+  }
+
   /** One table row as displayed: column name -> cell text. */
   static List<Map<String, String>> rows(JTable t) throws Exception {
-    return onEdt(() -> {
+    return onEdtTable(() -> {
       List<Map<String, String>> out = new ArrayList<>();
       for (int r = 0; r < t.getRowCount(); r++) {
         Map<String, String> m = new LinkedHashMap<>();
@@ -371,7 +387,7 @@ public class SpyProbe {
     if (open != null) {
       final JTable t = table;
       final String ch = open;
-      Boolean clicked = onEdt(() -> {
+      Boolean clicked = onEdtTable(() -> {
         for (int r = 0; r < t.getRowCount(); r++) {
           if (!ch.equals(String.valueOf(t.getValueAt(r, 0)))) continue;
           Rectangle cell = t.getCellRect(r, 0, true);
