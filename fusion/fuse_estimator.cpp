@@ -172,10 +172,9 @@ void FuseEstimator::maybe_publish(const std::string& tag_id, Track& t) {
   }
   // A consistent fix of the ranges far from the track, not yet confirmed by the next ones
   // (check_against_ranges): the tag may be there. Until the track restarts there or a fix agrees
-  // with it again (at most kFarFixS), the published covariance holds both places, so that no pose
-  // claims 0.1 m while the ranges say the tag is metres away.
-  constexpr utime_t kFarFixS = 1'000'000;
-  if (t.lost_checks > 0 && t.state.t - t.last_far_fix <= kFarFixS) {
+  // with it again (at most kFarFixSpan), the published covariance holds both places, so that no
+  // pose claims 0.1 m while the ranges say the tag is metres away.
+  if (t.lost_checks > 0 && t.state.t - t.last_far_fix <= kFarFixSpan) {
     const Eigen::Matrix2d spread = t.far_fix_offset * t.far_fix_offset.transpose();
     for (int i = 0; i < 2; ++i)
       for (int j = 0; j < 2; ++j) p.position_cov[3 * i + j] += spread(i, j);

@@ -235,6 +235,10 @@ class FuseEstimator {
     kSrcAngles = 128,
   };
   static constexpr int kMaxAngles = 8;  // anchors per advertisement
+  // Far fixes of the ranges count together toward a lost track's restart within this
+  // (check_against_ranges), and the poses after one hold it in their covariance for this long
+  // (maybe_publish).
+  static constexpr utime_t kFarFixSpan = 1'000'000;
   struct Angles {
     int count = 0;
     std::array<int, kMaxAngles> anchor{};  // site anchor index
@@ -288,7 +292,7 @@ class FuseEstimator {
     utime_t waiting_since = 0;            // the first range of the wait (0: not waiting)
     int gated_since_check = 0;            // ranges gated since the last check_against_ranges
     utime_t last_lost_check = 0;
-    int lost_checks = 0;                  // checks in a row that found the track far off
+    int lost_checks = 0;                  // far fixes since one agreed, within kFarFixSpan
     utime_t last_far_fix = 0;             // the last of them
     Eigen::Vector2d far_fix_offset = Eigen::Vector2d::Zero();  // its position minus the track's
     utime_t last_checked_fix = 0;         // the last fix of the ranges with a spare range

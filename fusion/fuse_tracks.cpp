@@ -182,7 +182,7 @@ void FuseEstimator::check_against_ranges(const std::string& tag_id, Track& t) {
   // would bring it back. Widening step by step (count_absolute) took seconds of confident
   // estimates metres off. So, at most every kLostCheckS while some ranges are gated: a
   // multilateration of the last epoch's ranges (with a spare range, its residual checked as a
-  // start's is); kLostChecks of them within kLostSpanS far outside the track's and the fix's
+  // start's is); kLostChecks of them within kFarFixSpan far outside the track's and the fix's
   // uncertainty, none agreeing with the track in between, and the track starts afresh at the fix
   // (`lost_restarts`, HEALTH). Until then the poses published hold the far fix in their
   // covariance (maybe_publish, `poses_doubted`).
@@ -192,7 +192,6 @@ void FuseEstimator::check_against_ranges(const std::string& tag_id, Track& t) {
   // (maybe_publish).
   constexpr double kLostCheckS = 0.2;
   constexpr int kLostChecks = 3;
-  constexpr double kLostSpanS = 1.0;  // ... within this
   constexpr double kChi2 = 13.8;     // 2 degrees of freedom, 99.9 %
   constexpr double kMinJumpM = 0.5;  // never for less: the ranges of a moving tag spread so
   if ((t.gated_since_check == 0 && !t.prior_unchecked) || t.recent_ranges.empty() ||
@@ -224,8 +223,8 @@ void FuseEstimator::check_against_ranges(const std::string& tag_id, Track& t) {
       t.lost_checks = 0;
       return;
     }
-    // kLostChecks far fixes within kLostSpanS, none agreeing in between.
-    if (t.lost_checks > 0 && fix->t - t.last_far_fix > s_to_utime(kLostSpanS)) t.lost_checks = 0;
+    // kLostChecks far fixes within kFarFixSpan, none agreeing in between.
+    if (t.lost_checks > 0 && fix->t - t.last_far_fix > kFarFixSpan) t.lost_checks = 0;
     t.last_far_fix = fix->t;
     t.far_fix_offset = d;
     if (++t.lost_checks < kLostChecks) return;
