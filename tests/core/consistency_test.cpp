@@ -3,9 +3,12 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <numbers>
 #include <random>
 #include <string>
+#include <utility>
+#include <vector>
 
 namespace ips {
 namespace {
@@ -168,6 +171,39 @@ TEST(ConsistencyMonitor, WindowForgetsAndTimeBackRestarts) {
   feed(m, "B1", 5, 10.0, 0.0, 1.0, 1.0, rng, -100.0);  // a clock back: a fresh window
   EXPECT_EQ(m.verdicts()[0].n, 5u);
   EXPECT_EQ(m.verdicts()[0].state, ConsistencyMonitor::State::kTooFew);
+}
+
+// The window's median, kept in order as samples enter and leave (by count, by age, a sample
+// entering as another leaves), is the median of the samples inside it: against a sort of the
+// same samples, with ties, a heavy tail and gaps in time that empty most of the window.
+TEST(ConsistencyMonitor, WindowMedianIsTheMedianOfTheWindowsSamples) {
+  std::mt19937 rng(11);
+  ConsistencyOptions o;
+  o.max_samples = 37;
+  o.window_s = 5.0;
+  o.min_samples = 1;
+  ConsistencyMonitor m(o);
+  std::vector<std::pair<double, double>> kept;  // (t, nis)
+  std::uniform_int_distribution<int> small(0, 6);
+  std::exponential_distribution<double> tail(0.5);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  double t = 0.0;
+  for (int i = 0; i < 5000; ++i) {
+    t += u(rng) < 0.01 ? 3.0 + 3.0 * u(rng) : 0.1 * u(rng);
+    const double nis = u(rng) < 0.5 ? static_cast<double>(small(rng)) : tail(rng);
+    m.add_nis("ANGLE", "B1", t, nis, 1, false);
+    kept.emplace_back(t, nis);
+    while (kept.size() > o.max_samples || kept.front().first < t - o.window_s)
+      kept.erase(kept.begin());
+    std::vector<double> v;
+    for (const auto& k : kept) v.push_back(k.second);
+    std::sort(v.begin(), v.end());
+    const size_t mid = v.size() / 2;
+    const double median = v.size() % 2 == 0 ? 0.5 * (v[mid] + v[mid - 1]) : v[mid];
+    const ConsistencyMonitor::Verdict verdict = m.verdicts().at(0);
+    ASSERT_EQ(verdict.n, v.size()) << "sample " << i;
+    ASSERT_EQ(verdict.ratio, median / chi2_median(1)) << "sample " << i;
+  }
 }
 
 struct FakeNode {
