@@ -174,7 +174,10 @@ void feed_pdr(const uint8_t* data, size_t size) {
       "fuzz-pdr-site");
   ips::pdr::PdrEstimator est(
       [](const ips::step_t& s) {
-        if (!std::isfinite(s.length_m) || !std::isfinite(s.heading_rad))
+        // A step of unknown heading (a device without a gyroscope) says so: heading_known
+        // false and heading_rad NaN (pdr_estimator.hpp); every other step has a finite one.
+        if (!std::isfinite(s.length_m) || !(s.length_m > 0) || !std::isfinite(s.cadence_hz) ||
+            s.heading_known != std::isfinite(s.heading_rad))
           throw std::logic_error("non-finite step published");
       },
       [](const ips::pose_t& p) {

@@ -423,6 +423,7 @@ TEST(PdrEstimator, AccelerometerOnlyCountsStepsWithHeadingUnknown) {
   EXPECT_NEAR(static_cast<double>(steps.size()), 36.0, 1.0);
   EXPECT_EQ(poses, 0);
   for (const step_t& s : steps) {
+    EXPECT_FALSE(s.heading_known);
     EXPECT_TRUE(std::isnan(s.heading_rad));
     EXPECT_GT(s.length_m, 0);
   }
