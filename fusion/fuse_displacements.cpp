@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <numbers>
 #include <optional>
 #include <string>
 #include <utility>
@@ -18,6 +19,11 @@
 namespace ips::fusion {
 
 namespace {
+// A new frame's displacements held back (predict) until they add up to this, where absolute
+// measurements within kFrameRecent move the track.
+constexpr double kFrameBaselineM = 1.0;
+constexpr utime_t kFrameRecent = 1'000'000;
+
 const char* displacement_channel(DisplacementSource s) {
   switch (s) {
     case DisplacementSource::kInsModule: return "INS_MODULE";
@@ -235,6 +241,40 @@ void FuseEstimator::predict(const Track& t, Snapshot& s, utime_t to) const {
     if (a > cursor) cv(cursor, a);
     const double fraction = static_cast<double>(b - a) / static_cast<double>(d.t - d.t0);
     const Eigen::Vector3d part = fraction * d.vec;
+    if (!s.filter.frame_aligned) {
+      // A new frame (a track's start, a source's restart). Its rotation is known only to
+      // heading_bias_sigma_deg, but a module's frame is wherever it was switched on and drifts
+      // on: a restarted ips-fuse met one 131 deg from the site's (issue 26's soak), took its
+      // displacements pointing the wrong way and was 0.45 m off saying 0.1 m. So where absolute
+      // horizontal measurements were moving the track when the frame's first displacement
+      // began, its displacements are held back until they add up to kFrameBaselineM, the track
+      // moving on those measurements at constant velocity meanwhile, as it did before; then the
+      // two paths' directions measure the rotation (measure_frame). A track the frame started
+      // (from the module's first position: 001's corridor, where one or two anchors cannot carry
+      // it alone), or one without recent measurements, takes its displacements at once with the
+      // prior, as does one whose measurements stop during the window.
+      FuseFilter& f = s.filter;
+      const bool recent = s.last_horizontal != 0 && a - s.last_horizontal <= kFrameRecent;
+      if (recent && !f.frame_window) {
+        f.frame_window = true;
+        f.frame_from = f.x.head<2>();
+        f.frame_from_cov = f.P.block<2, 2>(0, 0);
+        f.frame_dr.setZero();
+      }
+      if (recent) {
+        cv(a, b);
+        cursor = b;
+        f.frame_dr += part.head<2>();
+        if (f.frame_dr.norm() >= kFrameBaselineM) {
+          measure_frame(f);
+          f.frame_window = false;
+          f.frame_aligned = true;
+        }
+        continue;
+      }
+      f.frame_window = false;
+      f.frame_aligned = true;
+    }
     // The whole displacement's variance, shared out in proportion to time, so that splitting it
     // between other messages adds up to the same.
     const double sigma = std::sqrt(fraction) *
@@ -255,6 +295,48 @@ void FuseEstimator::new_frame(FuseFilter& f) const {
   f.P.row(kPsi).setZero();
   f.P.col(kPsi).setZero();
   f.P(kPsi, kPsi) = std::max(bias_sigma * bias_sigma, 1e-12);
+  f.frame_aligned = false;
+  f.frame_window = false;
+}
+
+bool FuseEstimator::measure_frame(FuseFilter& f) const {
+  // The track's path over the window (its chord, from absolute measurements) against the
+  // displacements' sum: the rotation psi between them, with a variance from the two ends'
+  // position covariances across the chord (their correlation, which makes the chord better known,
+  // left out: it errs wide) and the displacements' own noise over their length. Combined with
+  // the prior where the two agree within 3 sigma; further off the prior is what is wrong, and the
+  // measurement replaces it. Where the path says too little (it moved under half of the
+  // displacements' length, or the angle's sigma is over kMaxSigmaRad) the prior stands.
+  constexpr double kMaxSigmaRad = 20.0 * std::numbers::pi / 180.0;
+  const Eigen::Vector2d chord = f.x.head<2>() - f.frame_from;
+  const double length = chord.norm(), dr_length = f.frame_dr.norm();
+  if (!(length >= 0.5 * dr_length) || !(dr_length > 0)) return false;
+  const Eigen::Vector2d across(-chord.y() / length, chord.x() / length);
+  const double dr_sigma = std::max(params_.displacement_sigma_min_m,
+                                   params_.displacement_sigma_per_m * dr_length);
+  const double var =
+      across.dot((f.P.block<2, 2>(0, 0) + f.frame_from_cov) * across) / (length * length) +
+      dr_sigma * dr_sigma / (dr_length * dr_length);
+  if (!(var <= kMaxSigmaRad * kMaxSigmaRad)) return false;
+  const double measured = wrap_angle(std::atan2(chord.y(), chord.x()) -
+                                     std::atan2(f.frame_dr.y(), f.frame_dr.x()));
+  const double prior_var = f.P(kPsi, kPsi);
+  const double innovation = wrap_angle(measured - f.x(kPsi));
+  if (innovation * innovation <= 9.0 * (prior_var + var)) {
+    // The Kalman update of a measurement of psi alone (no displacement has correlated psi with
+    // the rest yet, so only psi moves).
+    const Eigen::Matrix<double, kStateSize, 1> gain = f.P.col(kPsi) / (prior_var + var);
+    f.x += gain * innovation;
+    f.x(kPsi) = wrap_angle(f.x(kPsi));
+    f.P -= gain * f.P.row(kPsi);
+    symmetrize<kStateSize>(f.P);
+  } else {
+    f.x(kPsi) = measured;
+    f.P.row(kPsi).setZero();
+    f.P.col(kPsi).setZero();
+    f.P(kPsi, kPsi) = var;
+  }
+  return true;
 }
 
 void FuseEstimator::apply_displacement(Track& t, const Measurement& m, bool live) {

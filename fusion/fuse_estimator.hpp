@@ -272,6 +272,10 @@ class FuseEstimator {
     // measurement taken since: what the first ones say decides whether the prior holds.
     bool prior_only = false;
     bool prior_refuted = false;  // ... and the first ones refuted it (count_absolute)
+    // The last absolute measurement of the horizontal position taken (ranges, blinks, angles,
+    // poses; not heights): a new dead-reckoning frame is measured against the track's path only
+    // where one is recent.
+    utime_t last_horizontal = 0;
   };
   struct Track {
     bool initialised = false;
@@ -366,6 +370,9 @@ class FuseEstimator {
   // A displacement moved the state in predict() (fuse_displacements.cpp): counted here.
   void apply_displacement(Track& t, const Measurement& m, bool live);
   void new_frame(FuseFilter& f) const;  // a restarted dead-reckoning source's heading bias
+  // A new frame's rotation measured from its held-back displacements (fuse_displacements.cpp):
+  // false where the track's path cannot say, the prior then standing.
+  bool measure_frame(FuseFilter& f) const;
   // An absolute measurement accepted or gated: after reinit_after_rejections gated in a row
   // the track is widened.
   // (`widen`: false where check_against_ranges judges the track instead.)

@@ -28,6 +28,16 @@ struct FuseFilter {
   State x = State::Zero();
   Covariance P = Covariance::Identity();
   bool planar = false;  // z and vz fixed
+  // The dead-reckoning frame's rotation psi, measured at its start (FuseEstimator::predict,
+  // fuse_displacements.cpp): until `frame_aligned`, a track moving on absolute measurements holds
+  // the frame's displacements back (`frame_window`), summing them (`frame_dr`) while its position
+  // moves on from `frame_from` (covariance `frame_from_cov`): the two paths' directions give
+  // psi. A new frame (a track's start, a source's restart) is not aligned.
+  bool frame_aligned = false;
+  bool frame_window = false;
+  Eigen::Vector2d frame_from = Eigen::Vector2d::Zero();
+  Eigen::Matrix2d frame_from_cov = Eigen::Matrix2d::Zero();
+  Eigen::Vector2d frame_dr = Eigen::Vector2d::Zero();
 
   // turn_mid_rad, turn_end_rad: how far the velocity has turned by the middle and the end of
   // the step (the gyro's).

@@ -44,7 +44,7 @@ void FuseEstimator::apply_position(Track& t, Snapshot& s, const Measurement& m, 
   FuseFilter& f = s.filter;
   const UpdateResult u = update_position(f, m.vec, m.cov, m.horizontal_only,
                                          params_.pose_gate_sigma * params_.pose_gate_sigma);
-  if (u.accepted) s.last_absolute = m.t;
+  if (u.accepted) s.last_absolute = s.last_horizontal = m.t;
   if (live) {
     consistency_.add_nis("POSE", m.pose_kind, utime_to_s(m.t), u.mahalanobis_sq,
                          m.horizontal_only || f.planar ? 2 : 3, !u.accepted,

@@ -249,6 +249,7 @@ void FuseEstimator::count_absolute(Snapshot& s, utime_t t, bool accepted, bool l
   constexpr int kPriorRefuted = 4;
   if (accepted) {
     s.last_absolute = t;
+    s.last_horizontal = t;
     s.rejections = 0;
     s.prior_only = false;
   } else if (++s.rejections >= kPriorRefuted && s.prior_only) {

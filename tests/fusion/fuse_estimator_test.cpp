@@ -5,11 +5,13 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <numbers>
 #include <random>
 #include <vector>
 
+#include "core/geometry.hpp"
 #include "fusion/fuse_estimator.hpp"
 
 namespace ips::fusion {
@@ -373,6 +375,44 @@ TEST(FuseEstimator, ADeadReckoningSourceThatRestartsFromANewOriginIsNoJump) {
       << est.run_notes();
   // After the restart the module's positions moved the track again.
   EXPECT_EQ(out.back().source, "fuse:uwb_range+ins_module");
+}
+
+// Issue 26's soak: a restarted ips-fuse met a foot module whose frame had drifted 131 deg from
+// the site's, far outside the heading bias's prior (0 +- 30 deg). The track runs on ranges alone
+// until the module is first heard, at 6 s, walking north at 0.85 m/s: its displacements are held
+// back for their first metre, and the track's path on the ranges meanwhile against theirs
+// measures the rotation, which replaces the prior it refutes. Taken with the prior alone, the
+// displacements pointed the wrong way: 1.55 m off at 15.8 sigma. Where the rotation is within
+// the prior (-0.27 rad) the two are combined: as good.
+TEST(FuseEstimator, ADeadReckoningFrameFarOffThePriorIsMeasuredFromTheTracksPath) {
+  for (const double rotation : {-131.0 * std::numbers::pi / 180.0, -0.27}) {
+    std::vector<pose_t> out;
+    FuseEstimator est([&](const pose_t& p) { out.push_back(p); });
+    const Site site = site_with();
+    est.set_site(site);
+    double worst = 0, worst_sigmas = 0;
+    for (const auto& i : inputs(site, 30.0, rotation, 0.05, 7)) {
+      const double t = utime_to_s(i.t - kT0);
+      if (i.kind == 1 && t < 6.0) continue;
+      feed(est, i);
+      const auto f = est.filter("T1");
+      if (t <= 6.0 || !f) continue;
+      const Eigen::Vector2d e = f->x.head<2>() - truth_at(t).head<2>();
+      worst = std::max(worst, e.norm());
+      // Mahalanobis distance of the error in the filter's own horizontal covariance.
+      const Eigen::Matrix2d cov = f->P.block<2, 2>(0, 0);
+      worst_sigmas = std::max(worst_sigmas, std::sqrt(e.dot(cov.inverse() * e)));
+    }
+    std::printf("module rotated %.3f rad: worst %.3f m, %.2f sigma; heading bias %.3f rad\n",
+                rotation, worst, worst_sigmas, est.filter("T1")->x(kPsi));
+    SCOPED_TRACE(rotation);
+    EXPECT_LT(worst, 0.3);
+    EXPECT_LT(worst_sigmas, 3.5);
+    EXPECT_NEAR(wrap_angle(est.filter("T1")->x(kPsi) + rotation), 0.0, 0.05);
+    EXPECT_EQ(out.back().source, "fuse:uwb_range+ins_module");
+    EXPECT_EQ(est.stats().lost_restarts, 0);
+    EXPECT_GT(est.stats().displacements_used, 40);
+  }
 }
 
 // Issue 22: a range whose rx - first-path power exceeds nlos_power_db (APS006: > 10 dB likely
