@@ -111,6 +111,9 @@ void FuseEstimator::start(const std::string& tag_id, Track& t, utime_t time,
   t.initialised = true;
   t.ever_started = true;
   t.state = Snapshot{time, time, f, time, 0, prior};
+  // A start from measurements (a fix of the ranges, a pose) is one of the horizontal position: a
+  // dead-reckoning frame first heard right after it is measured against the track's path.
+  if (!prior) t.state.last_horizontal = time;
   t.prior_unchecked = prior;
   t.started_at = time;
   t.lost_checks = 0;

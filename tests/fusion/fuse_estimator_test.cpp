@@ -9,6 +9,7 @@
 #include <limits>
 #include <numbers>
 #include <random>
+#include <utility>
 #include <vector>
 
 #include "core/geometry.hpp"
@@ -385,7 +386,11 @@ TEST(FuseEstimator, ADeadReckoningSourceThatRestartsFromANewOriginIsNoJump) {
 // displacements pointed the wrong way: 1.55 m off at 15.8 sigma. Where the rotation is within
 // the prior (-0.27 rad) the two are combined: as good.
 TEST(FuseEstimator, ADeadReckoningFrameFarOffThePriorIsMeasuredFromTheTracksPath) {
-  for (const double rotation : {-131.0 * std::numbers::pi / 180.0, -0.27}) {
+  // (rotation, the module first heard at): also right after the track's start from the ranges,
+  // before any range has updated it (the start is a fix of the horizontal position).
+  const double far = -131.0 * std::numbers::pi / 180.0;
+  for (const auto& [rotation, heard_s] :
+       std::vector<std::pair<double, double>>{{far, 6.0}, {-0.27, 6.0}, {far, 0.5}}) {
     std::vector<pose_t> out;
     FuseEstimator est([&](const pose_t& p) { out.push_back(p); });
     const Site site = site_with();
@@ -393,19 +398,20 @@ TEST(FuseEstimator, ADeadReckoningFrameFarOffThePriorIsMeasuredFromTheTracksPath
     double worst = 0, worst_sigmas = 0;
     for (const auto& i : inputs(site, 30.0, rotation, 0.05, 7)) {
       const double t = utime_to_s(i.t - kT0);
-      if (i.kind == 1 && t < 6.0) continue;
+      if (i.kind == 1 && t < heard_s) continue;
       feed(est, i);
       const auto f = est.filter("T1");
-      if (t <= 6.0 || !f) continue;
+      if (t <= heard_s || !f) continue;
       const Eigen::Vector2d e = f->x.head<2>() - truth_at(t).head<2>();
       worst = std::max(worst, e.norm());
       // Mahalanobis distance of the error in the filter's own horizontal covariance.
       const Eigen::Matrix2d cov = f->P.block<2, 2>(0, 0);
       worst_sigmas = std::max(worst_sigmas, std::sqrt(e.dot(cov.inverse() * e)));
     }
-    std::printf("module rotated %.3f rad: worst %.3f m, %.2f sigma; heading bias %.3f rad\n",
-                rotation, worst, worst_sigmas, est.filter("T1")->x(kPsi));
-    SCOPED_TRACE(rotation);
+    std::printf("module rotated %.3f rad, heard from %.1f s: worst %.3f m, %.2f sigma; heading "
+                "bias %.3f rad\n", rotation, heard_s, worst, worst_sigmas,
+                est.filter("T1")->x(kPsi));
+    SCOPED_TRACE(testing::Message() << rotation << " rad from " << heard_s << " s");
     EXPECT_LT(worst, 0.3);
     EXPECT_LT(worst_sigmas, 3.5);
     EXPECT_NEAR(wrap_angle(est.filter("T1")->x(kPsi) + rotation), 0.0, 0.05);
