@@ -23,6 +23,12 @@ namespace {
 // measurements within kFrameRecent move the track.
 constexpr double kFrameBaselineM = 1.0;
 constexpr utime_t kFrameRecent = 1'000'000;
+// ... and opened only where the last of them, this recent, was taken (not gated): a track whose
+// measurements have paused or disagree with it (a tag that jumped) may be about to be corrected.
+constexpr utime_t kFrameOpen = 300'000;
+// Windows whose path is no rotation of the displacements' (measure_frame) before the prior is
+// taken instead.
+constexpr int kFrameTries = 3;
 
 const char* displacement_channel(DisplacementSource s) {
   switch (s) {
@@ -254,7 +260,10 @@ void FuseEstimator::predict(const Track& t, Snapshot& s, utime_t to) const {
       // it alone), or one without recent measurements, takes its displacements at once with the
       // prior, as does one whose measurements stop during the window.
       FuseFilter& f = s.filter;
-      const bool recent = s.last_horizontal != 0 && a - s.last_horizontal <= kFrameRecent;
+      const bool recent =
+          s.last_horizontal != 0 &&
+          (f.frame_window ? a - s.last_horizontal <= kFrameRecent
+                          : a - s.last_horizontal <= kFrameOpen && s.rejections == 0);
       if (recent && !f.frame_window) {
         f.frame_window = true;
         f.frame_from = f.x.head<2>();
@@ -266,9 +275,14 @@ void FuseEstimator::predict(const Track& t, Snapshot& s, utime_t to) const {
         cursor = b;
         f.frame_dr += part.head<2>();
         if (f.frame_dr.norm() >= kFrameBaselineM) {
-          measure_frame(f);
-          f.frame_window = false;
-          f.frame_aligned = true;
+          if (measure_frame(f) == FrameCheck::kAgain && ++f.frame_tries < kFrameTries) {
+            f.frame_from = f.x.head<2>();  // a new window from here
+            f.frame_from_cov = f.P.block<2, 2>(0, 0);
+            f.frame_dr.setZero();
+          } else {
+            f.frame_window = false;
+            f.frame_aligned = true;
+          }
         }
         continue;
       }
@@ -297,27 +311,36 @@ void FuseEstimator::new_frame(FuseFilter& f) const {
   f.P(kPsi, kPsi) = std::max(bias_sigma * bias_sigma, 1e-12);
   f.frame_aligned = false;
   f.frame_window = false;
+  f.frame_tries = 0;
 }
 
-bool FuseEstimator::measure_frame(FuseFilter& f) const {
+FuseEstimator::FrameCheck FuseEstimator::measure_frame(FuseFilter& f) const {
   // The track's path over the window (its chord, from absolute measurements) against the
   // displacements' sum: the rotation psi between them, with a variance from the two ends'
   // position covariances across the chord (their correlation, which makes the chord better known,
-  // left out: it errs wide) and the displacements' own noise over their length. Combined with
-  // the prior where the two agree within 3 sigma; further off the prior is what is wrong, and the
-  // measurement replaces it. Where the path says too little (it moved under half of the
-  // displacements' length, or the angle's sigma is over kMaxSigmaRad) the prior stands.
+  // left out: it errs wide) and the displacements' own noise over their length. A rotation keeps
+  // lengths: a chord whose length differs from the displacements' by more than kLengthSigmas
+  // (the same covariances along it) is no rotation of them, but a track corrected meanwhile (a
+  // tag that jumped, a simulator restarted: the soak's second run measured 2.9 rad from such a
+  // window), and a new window is measured. Combined with the prior where the two agree within 3
+  // sigma; further off the prior is what is wrong, and the measurement replaces it. Where the path
+  // says too little (the angle's sigma over kMaxSigmaRad) the prior stands.
   constexpr double kMaxSigmaRad = 20.0 * std::numbers::pi / 180.0;
+  constexpr double kLengthSigmas = 2.0;
   const Eigen::Vector2d chord = f.x.head<2>() - f.frame_from;
   const double length = chord.norm(), dr_length = f.frame_dr.norm();
-  if (!(length >= 0.5 * dr_length) || !(dr_length > 0)) return false;
-  const Eigen::Vector2d across(-chord.y() / length, chord.x() / length);
+  if (!(length > 0) || !(dr_length > 0)) return FrameCheck::kAgain;
+  const Eigen::Matrix2d ends = f.P.block<2, 2>(0, 0) + f.frame_from_cov;
+  const Eigen::Vector2d along = chord / length;
+  const Eigen::Vector2d across(-along.y(), along.x());
   const double dr_sigma = std::max(params_.displacement_sigma_min_m,
                                    params_.displacement_sigma_per_m * dr_length);
+  const double length_var = along.dot(ends * along) + dr_sigma * dr_sigma;
   const double var =
-      across.dot((f.P.block<2, 2>(0, 0) + f.frame_from_cov) * across) / (length * length) +
-      dr_sigma * dr_sigma / (dr_length * dr_length);
-  if (!(var <= kMaxSigmaRad * kMaxSigmaRad)) return false;
+      across.dot(ends * across) / (length * length) + dr_sigma * dr_sigma / (dr_length * dr_length);
+  if (!(var <= kMaxSigmaRad * kMaxSigmaRad)) return FrameCheck::kPriorStands;
+  if (std::abs(length - dr_length) > kLengthSigmas * std::sqrt(length_var))
+    return FrameCheck::kAgain;
   const double measured = wrap_angle(std::atan2(chord.y(), chord.x()) -
                                      std::atan2(f.frame_dr.y(), f.frame_dr.x()));
   const double prior_var = f.P(kPsi, kPsi);
@@ -336,7 +359,7 @@ bool FuseEstimator::measure_frame(FuseFilter& f) const {
     f.P.col(kPsi).setZero();
     f.P(kPsi, kPsi) = var;
   }
-  return true;
+  return FrameCheck::kMeasured;
 }
 
 void FuseEstimator::apply_displacement(Track& t, const Measurement& m, bool live) {

@@ -371,8 +371,10 @@ class FuseEstimator {
   void apply_displacement(Track& t, const Measurement& m, bool live);
   void new_frame(FuseFilter& f) const;  // a restarted dead-reckoning source's heading bias
   // A new frame's rotation measured from its held-back displacements (fuse_displacements.cpp):
-  // false where the track's path cannot say, the prior then standing.
-  bool measure_frame(FuseFilter& f) const;
+  // kMeasured; kPriorStands where the track's path cannot say; kAgain where the path is no
+  // rotation of the displacements' (the track was corrected meanwhile: measured afresh).
+  enum class FrameCheck { kMeasured, kPriorStands, kAgain };
+  FrameCheck measure_frame(FuseFilter& f) const;
   // An absolute measurement accepted or gated: after reinit_after_rejections gated in a row
   // the track is widened.
   // (`widen`: false where check_against_ranges judges the track instead.)

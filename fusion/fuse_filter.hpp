@@ -35,6 +35,7 @@ struct FuseFilter {
   // psi. A new frame (a track's start, a source's restart) is not aligned.
   bool frame_aligned = false;
   bool frame_window = false;
+  int frame_tries = 0;  // windows whose path was no rotation of the displacements'
   Eigen::Vector2d frame_from = Eigen::Vector2d::Zero();
   Eigen::Matrix2d frame_from_cov = Eigen::Matrix2d::Zero();
   Eigen::Vector2d frame_dr = Eigen::Vector2d::Zero();

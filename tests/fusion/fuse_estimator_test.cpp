@@ -421,6 +421,37 @@ TEST(FuseEstimator, ADeadReckoningFrameFarOffThePriorIsMeasuredFromTheTracksPath
   }
 }
 
+// The soak's second run: a simulator restarted while a new frame's window was open, so the tag
+// jumped 2 m and the ranges pulled the track after it; the chord took the jump for motion and
+// measured 2.9 rad. A rotation keeps lengths: a chord 2 m long against 1 m of displacements is
+// no rotation of them, and a new window is measured. Here the first ranges put the tag 2 m east
+// of where it is (until 2 s), the module (rotated -0.27 rad) is heard from 1 s, the walk starts
+// at 3 s.
+TEST(FuseEstimator, AFrameWindowWhoseTrackJumpedIsMeasuredAgain) {
+  std::vector<pose_t> out;
+  FuseEstimator est([&](const pose_t& p) { out.push_back(p); });
+  const Site site = site_with();
+  est.set_site(site);
+  double worst = 0;
+  for (auto i : inputs(site, 30.0, -0.27, 0.05, 3)) {
+    const double t = utime_to_s(i.t - kT0);
+    if (i.kind == 1 && t < 1.0) continue;
+    if (i.kind == 0 && t < 2.0) {
+      const Anchor* a = site.find_anchor(i.anchor);
+      ASSERT_NE(a, nullptr);
+      i.range_m = (truth_at(t) + Eigen::Vector3d(2.0, 0, 0) - a->position).norm();
+    }
+    feed(est, i);
+    if (t > 6.0 && est.filter("T1"))
+      worst = std::max(worst, (est.filter("T1")->x.head<2>() - truth_at(t).head<2>()).norm());
+  }
+  std::printf("a window whose track jumped: worst %.3f m after 6 s; heading bias %.3f rad\n",
+              worst, est.filter("T1")->x(kPsi));
+  EXPECT_LT(worst, 0.3);
+  EXPECT_NEAR(est.filter("T1")->x(kPsi), 0.27, 0.05);
+  EXPECT_EQ(out.back().source, "fuse:uwb_range+ins_module");
+}
+
 // Issue 22: a range whose rx - first-path power exceeds nlos_power_db (APS006: > 10 dB likely
 // NLOS) pulls the estimate less and is counted; estimators.uwb_twr's setting is the default, 0
 // turns it off. The standing tag at the origin gets one range 0.3 m long from A1.
