@@ -160,8 +160,7 @@ bool FuseEstimator::source_restarted(const std::string& tag_id, const Track& t,
   const double speed = f.x.segment<2>(kVel).norm();
   const double speed_sigma = std::sqrt(std::max(0.0, f.P(kVel, kVel) + f.P(kVel + 1, kVel + 1)));
   const double sigma = speed_sigma * dt + std::sqrt(params_.accel_psd * dt * dt * dt / 3.0) +
-                       std::max(params_.displacement_sigma_min_m,
-                                params_.displacement_sigma_per_m * moved);
+                       params_.displacement_sigma(moved);
   const double excess = moved - speed * dt;
   if (excess <= std::max(kMinExcessM, 3.0 * sigma)) return false;
   ++stats_.source_restarts;
@@ -264,21 +263,14 @@ void FuseEstimator::predict(const Track& t, Snapshot& s, utime_t to) const {
           s.last_horizontal != 0 &&
           (f.frame_window ? a - s.last_horizontal <= kFrameRecent
                           : a - s.last_horizontal <= kFrameOpen && s.rejections == 0);
-      if (recent && !f.frame_window) {
-        f.frame_window = true;
-        f.frame_from = f.x.head<2>();
-        f.frame_from_cov = f.P.block<2, 2>(0, 0);
-        f.frame_dr.setZero();
-      }
+      if (recent && !f.frame_window) f.open_frame_window();
       if (recent) {
         cv(a, b);
         cursor = b;
         f.frame_dr += part.head<2>();
         if (f.frame_dr.norm() >= kFrameBaselineM) {
           if (measure_frame(f) == FrameCheck::kAgain && ++f.frame_tries < kFrameTries) {
-            f.frame_from = f.x.head<2>();  // a new window from here
-            f.frame_from_cov = f.P.block<2, 2>(0, 0);
-            f.frame_dr.setZero();
+            f.open_frame_window();
           } else {
             f.frame_window = false;
             f.frame_aligned = true;
@@ -291,9 +283,7 @@ void FuseEstimator::predict(const Track& t, Snapshot& s, utime_t to) const {
     }
     // The whole displacement's variance, shared out in proportion to time, so that splitting it
     // between other messages adds up to the same.
-    const double sigma = std::sqrt(fraction) *
-                         std::max(params_.displacement_sigma_min_m,
-                                  params_.displacement_sigma_per_m * d.vec.norm());
+    const double sigma = std::sqrt(fraction) * params_.displacement_sigma(d.vec.norm());
     s.filter.predict_displacement(part, utime_to_s(b - a), sigma, psi_walk);
     s.velocity_t = d.t0 + (d.t - d.t0) / 2;
     cursor = b;
@@ -305,10 +295,7 @@ void FuseEstimator::predict(const Track& t, Snapshot& s, utime_t to) const {
 void FuseEstimator::new_frame(FuseFilter& f) const {
   // As start() sets it: the bias unknown within heading_bias_sigma_deg, uncorrelated.
   const double bias_sigma = deg_to_rad(params_.heading_bias_sigma_deg);
-  f.x(kPsi) = 0.0;
-  f.P.row(kPsi).setZero();
-  f.P.col(kPsi).setZero();
-  f.P(kPsi, kPsi) = std::max(bias_sigma * bias_sigma, 1e-12);
+  f.set_heading_bias(0.0, std::max(bias_sigma * bias_sigma, 1e-12));
   f.frame_aligned = false;
   f.frame_window = false;
   f.frame_tries = 0;
@@ -333,8 +320,7 @@ FuseEstimator::FrameCheck FuseEstimator::measure_frame(FuseFilter& f) const {
   const Eigen::Matrix2d ends = f.P.block<2, 2>(0, 0) + f.frame_from_cov;
   const Eigen::Vector2d along = chord / length;
   const Eigen::Vector2d across(-along.y(), along.x());
-  const double dr_sigma = std::max(params_.displacement_sigma_min_m,
-                                   params_.displacement_sigma_per_m * dr_length);
+  const double dr_sigma = params_.displacement_sigma(dr_length);
   const double length_var = along.dot(ends * along) + dr_sigma * dr_sigma;
   const double var =
       across.dot(ends * across) / (length * length) + dr_sigma * dr_sigma / (dr_length * dr_length);
@@ -343,22 +329,13 @@ FuseEstimator::FrameCheck FuseEstimator::measure_frame(FuseFilter& f) const {
     return FrameCheck::kAgain;
   const double measured = wrap_angle(std::atan2(chord.y(), chord.x()) -
                                      std::atan2(f.frame_dr.y(), f.frame_dr.x()));
-  const double prior_var = f.P(kPsi, kPsi);
-  const double innovation = wrap_angle(measured - f.x(kPsi));
-  if (innovation * innovation <= 9.0 * (prior_var + var)) {
-    // The Kalman update of a measurement of psi alone (no displacement has correlated psi with
-    // the rest yet, so only psi moves).
-    const Eigen::Matrix<double, kStateSize, 1> gain = f.P.col(kPsi) / (prior_var + var);
-    f.x += gain * innovation;
+  // A measurement of psi alone, gated at 3 sigma.
+  Mat<1, kStateSize> h = Mat<1, kStateSize>::Zero();
+  h(kPsi) = 1.0;
+  if (scalar_update<kStateSize>(f.x, f.P, h, wrap_angle(measured - f.x(kPsi)), var, 9.0).accepted)
     f.x(kPsi) = wrap_angle(f.x(kPsi));
-    f.P -= gain * f.P.row(kPsi);
-    symmetrize<kStateSize>(f.P);
-  } else {
-    f.x(kPsi) = measured;
-    f.P.row(kPsi).setZero();
-    f.P.col(kPsi).setZero();
-    f.P(kPsi, kPsi) = var;
-  }
+  else
+    f.set_heading_bias(measured, var);
   return FrameCheck::kMeasured;
 }
 

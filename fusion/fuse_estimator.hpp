@@ -24,6 +24,7 @@
 // state between them. With fewer anchors, or none, the track coasts on the displacements (or
 // constant velocity) and its covariance grows; gated ranges are accepted again as it does.
 // Pure: takes messages, emits pose_t through a callback, never reads a clock.
+#include <algorithm>
 #include <cstdint>
 #include <deque>
 #include <functional>
@@ -84,6 +85,10 @@ struct FuseParams {
   bool gyro_turns = true;  // IMU gyros turn the velocity between displacements
   double displacement_sigma_per_m = 0.05;  // noise of a displacement, per metre moved
   double displacement_sigma_min_m = 0.01;  // ... and at least this, per displacement
+  // The noise of a displacement moved_m long, per axis.
+  double displacement_sigma(double moved_m) const {
+    return std::max(displacement_sigma_min_m, displacement_sigma_per_m * moved_m);
+  }
   double heading_bias_sigma_deg = 30.0;    // initial: the source's frame vs the site's
   double heading_bias_walk_deg_per_sqrt_s = 2.0;
   double start_sigma_m = 0.3;     // a start from the site's start pose or a dead-reckoning position

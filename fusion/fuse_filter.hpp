@@ -40,6 +40,22 @@ struct FuseFilter {
   Eigen::Matrix2d frame_from_cov = Eigen::Matrix2d::Zero();
   Eigen::Vector2d frame_dr = Eigen::Vector2d::Zero();
 
+  // A new frame's wait, or the next one, starting from here.
+  void open_frame_window() {
+    frame_window = true;
+    frame_from = x.head<2>();
+    frame_from_cov = P.block<2, 2>(0, 0);
+    frame_dr.setZero();
+  }
+
+  // The heading bias psi, known to var and uncorrelated with the rest.
+  void set_heading_bias(double psi, double var) {
+    x(kPsi) = psi;
+    P.row(kPsi).setZero();
+    P.col(kPsi).setZero();
+    P(kPsi, kPsi) = var;
+  }
+
   // turn_mid_rad, turn_end_rad: how far the velocity has turned by the middle and the end of
   // the step (the gyro's).
   void predict_cv(double dt, double accel_psd, double psi_walk_var_per_s, double turn_mid_rad = 0,
