@@ -69,7 +69,10 @@ void FuseEstimator::apply_angles(Track& t, Snapshot& s, const Measurement& m, bo
   }
   // Angles are weak next to ranges: they do not count as gated ranges do (a tag the ranges
   // have lost is not found again by its bearings).
-  if (any) s.last_absolute = s.last_horizontal = m.t;
+  if (any) {
+    s.last_absolute = s.last_horizontal = m.t;
+    ++s.accepted_in_row;
+  }
 }
 
 }  // namespace ips::fusion

@@ -26,9 +26,17 @@ constexpr utime_t kFrameRecent = 1'000'000;
 // ... and opened only where the last of them, this recent, was taken (not gated): a track whose
 // measurements have paused or disagree with it (a tag that jumped) may be about to be corrected.
 constexpr utime_t kFrameOpen = 300'000;
-// Windows whose path is no rotation of the displacements' (measure_frame) before the prior is
-// taken instead.
-constexpr int kFrameTries = 3;
+// ... and after this many taken in a row (one accepted between gated ones opened windows on a
+// track the ranges were still pulling back to a jumped tag).
+constexpr int kFrameOpenAccepted = 4;
+// Windows measured (measure_frame: no rotation of the displacements', or a rotation the prior
+// refutes that the next window has not confirmed) before the prior is taken instead.
+constexpr int kFrameTries = 4;
+// How long a new frame waits, its displacements held back, for measurements to open its window
+// where they have paused or disagree with the track, before the prior is taken.
+constexpr utime_t kFrameWait = 2'000'000;
+// After a window whose track was corrected meanwhile, how long before the next may open.
+constexpr utime_t kFrameSettle = 1'000'000;
 
 const char* displacement_channel(DisplacementSource s) {
   switch (s) {
@@ -256,26 +264,50 @@ void FuseEstimator::predict(const Track& t, Snapshot& s, utime_t to) const {
       // moving on those measurements at constant velocity meanwhile, as it did before; then the
       // two paths' directions measure the rotation (measure_frame). A track the frame started
       // (from the module's first position: 001's corridor, where one or two anchors cannot carry
-      // it alone), or one without recent measurements, takes its displacements at once with the
-      // prior, as does one whose measurements stop during the window.
+      // it alone) takes its displacements at once with the prior; one whose measurements have
+      // paused or disagree with it waits for them (below).
       FuseFilter& f = s.filter;
+      if (f.frame_began == 0) f.frame_began = a;
       const bool recent =
           s.last_horizontal != 0 &&
           (f.frame_window ? a - s.last_horizontal <= kFrameRecent
-                          : a - s.last_horizontal <= kFrameOpen && s.rejections == 0);
+                          : a >= f.frame_open_after && a - s.last_horizontal <= kFrameOpen &&
+                                s.accepted_in_row >= kFrameOpenAccepted);
       if (recent && !f.frame_window) f.open_frame_window();
       if (recent) {
         cv(a, b);
         cursor = b;
         f.frame_dr += part.head<2>();
         if (f.frame_dr.norm() >= kFrameBaselineM) {
-          if (measure_frame(f) == FrameCheck::kAgain && ++f.frame_tries < kFrameTries) {
+          const FrameCheck res = measure_frame(f);
+          if (res == FrameCheck::kConfirm && ++f.frame_tries < kFrameTries) {
             f.open_frame_window();
+          } else if (res == FrameCheck::kAgain && ++f.frame_tries < kFrameTries) {
+            // The track was being corrected (a jumped tag re-acquired): the next window opens
+            // kFrameSettle later, by the same rule as the first, the displacements used untied
+            // meanwhile. Opened at once, its constant velocity carried the correction's speed on
+            // (the soak's faults 137 and 168: 3 m off for 0.5 s).
+            f.frame_window = false;
+            f.frame_open_after = b + kFrameSettle;
           } else {
             f.frame_window = false;
             f.frame_aligned = true;
           }
         }
+        continue;
+      }
+      // Measurements paused or disagreeing: the tag may have jumped (a simulator restarted with
+      // its module, the soak's fault 131), the track about to be corrected. The displacements
+      // taken at once with the prior coupled the heading bias to the ranges' re-acquisition,
+      // which drove it 2.3 rad from the prior and kept the track 0.5 to 0.9 m off for 2.5 s.
+      // So the frame waits for them up to kFrameWait (longer after a window measured), its
+      // displacements moving the track untied from the heading bias meanwhile.
+      if (s.last_horizontal != 0 && a - f.frame_began < kFrameWait * (1 + f.frame_tries)) {
+        f.frame_window = false;
+        s.filter.predict_displacement_untied(
+            part, utime_to_s(b - a), std::sqrt(fraction) * params_.displacement_sigma(d.vec.norm()));
+        s.velocity_t = d.t0 + (d.t - d.t0) / 2;
+        cursor = b;
         continue;
       }
       f.frame_window = false;
@@ -299,6 +331,9 @@ void FuseEstimator::new_frame(FuseFilter& f) const {
   f.frame_aligned = false;
   f.frame_window = false;
   f.frame_tries = 0;
+  f.frame_began = 0;
+  f.frame_open_after = 0;
+  f.frame_pending = false;
 }
 
 FuseEstimator::FrameCheck FuseEstimator::measure_frame(FuseFilter& f) const {
@@ -332,11 +367,31 @@ FuseEstimator::FrameCheck FuseEstimator::measure_frame(FuseFilter& f) const {
   // A measurement of psi alone, gated at 3 sigma.
   Mat<1, kStateSize> h = Mat<1, kStateSize>::Zero();
   h(kPsi) = 1.0;
-  if (scalar_update<kStateSize>(f.x, f.P, h, wrap_angle(measured - f.x(kPsi)), var, 9.0).accepted)
+  const double off_prior = wrap_angle(measured - f.x(kPsi));
+  if (off_prior * off_prior <= 9.0 * (f.P(kPsi, kPsi) + var)) {
+    scalar_update<kStateSize>(f.x, f.P, h, off_prior, var, 9.0);
     f.x(kPsi) = wrap_angle(f.x(kPsi));
-  else
-    f.set_heading_bias(measured, var);
-  return FrameCheck::kMeasured;
+    return FrameCheck::kMeasured;
+  }
+  // One that refutes the prior replaces it only when the next window agrees: a window that
+  // spanned a correction of the track (a tag that jumped, its ranges re-acquiring it) can keep
+  // the length of the displacements by chance and still point anywhere (replaying the soak's
+  // evidence: 2.14 rad from a window opened while the ranges pulled the track 2 m).
+  if (f.frame_pending) {
+    const double apart = wrap_angle(measured - f.frame_pending_psi);
+    if (apart * apart <= 9.0 * (var + f.frame_pending_var)) {
+      // Both: the variance-weighted mean of the two.
+      const double w = f.frame_pending_var / (f.frame_pending_var + var);
+      f.set_heading_bias(wrap_angle(f.frame_pending_psi + w * apart),
+                         f.frame_pending_var * var / (f.frame_pending_var + var));
+      f.frame_pending = false;
+      return FrameCheck::kMeasured;
+    }
+  }
+  f.frame_pending = true;
+  f.frame_pending_psi = measured;
+  f.frame_pending_var = var;
+  return FrameCheck::kConfirm;
 }
 
 void FuseEstimator::apply_displacement(Track& t, const Measurement& m, bool live) {

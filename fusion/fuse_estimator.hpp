@@ -273,6 +273,7 @@ class FuseEstimator {
     FuseFilter filter;
     utime_t last_absolute = 0;
     int rejections = 0;
+    int accepted_in_row = 0;  // absolute measurements taken since the last gated one
     // Started from a prior (the site's start pose, a dead-reckoning position) and no absolute
     // measurement taken since: what the first ones say decides whether the prior holds.
     bool prior_only = false;
@@ -378,7 +379,9 @@ class FuseEstimator {
   // A new frame's rotation measured from its held-back displacements (fuse_displacements.cpp):
   // kMeasured; kPriorStands where the track's path cannot say; kAgain where the path is no
   // rotation of the displacements' (the track was corrected meanwhile: measured afresh).
-  enum class FrameCheck { kMeasured, kPriorStands, kAgain };
+  // kAgain: the track was corrected during the window; kConfirm: a rotation far off the prior,
+  // to be confirmed by the next window.
+  enum class FrameCheck { kMeasured, kPriorStands, kAgain, kConfirm };
   FrameCheck measure_frame(FuseFilter& f) const;
   // An absolute measurement accepted or gated: after reinit_after_rejections gated in a row
   // the track is widened.

@@ -36,6 +36,12 @@ struct FuseFilter {
   bool frame_aligned = false;
   bool frame_window = false;
   int frame_tries = 0;  // windows whose path was no rotation of the displacements'
+  int64_t frame_began = 0;  // utime: the start of the frame's first displacement (0: none yet)
+  int64_t frame_open_after = 0;  // utime: no window opens before (a corrected track settling)
+  // A rotation measured far off the prior, waiting for the next window to confirm it.
+  bool frame_pending = false;
+  double frame_pending_psi = 0.0;
+  double frame_pending_var = 0.0;
   Eigen::Vector2d frame_from = Eigen::Vector2d::Zero();
   Eigen::Matrix2d frame_from_cov = Eigen::Matrix2d::Zero();
   Eigen::Vector2d frame_dr = Eigen::Vector2d::Zero();
@@ -121,6 +127,32 @@ struct FuseFilter {
       P(kVel + i, kVel + i) += var / (dt * dt);
     }
     P(kPsi, kPsi) += psi_walk_var_per_s * dt;
+    symmetrize<kStateSize>(P);
+  }
+
+  // A displacement of a frame whose rotation waits to be measured: turned by psi as it stands,
+  // the rotation's uncertainty added to the position across the displacement, not tied to psi.
+  // The measurements that correct the track meanwhile then leave psi alone (tied, they drove a
+  // new frame's psi 2.3 rad from the truth while a jumped tag was re-acquired: the soak's fault
+  // 131), and the track still moves as the displacements say.
+  void predict_displacement_untied(const Eigen::Vector3d& d, double dt, double sigma_m) {
+    const double c = std::cos(x(kPsi)), s = std::sin(x(kPsi));
+    const Eigen::Vector3d moved(c * d.x() - s * d.y(), s * d.x() + c * d.y(), planar ? 0.0 : d.z());
+    const Eigen::Vector3d dmoved(-s * d.x() - c * d.y(), c * d.x() - s * d.y(), 0.0);
+    x.head<3>() += moved;
+    x.segment<3>(kVel) = moved / dt;
+    const Eigen::Matrix3d turn = dmoved * dmoved.transpose() * P(kPsi, kPsi);
+    const int n = planar ? 2 : 3;
+    const double var = sigma_m * sigma_m;
+    // The velocity is this displacement's average: known as well as the displacement.
+    P.middleRows<3>(kVel).setZero();
+    P.middleCols<3>(kVel).setZero();
+    P.topLeftCorner<3, 3>() += turn;
+    P.block<3, 3>(kVel, kVel) = turn / (dt * dt);
+    for (int i = 0; i < n; ++i) {
+      P(i, i) += var;
+      P(kVel + i, kVel + i) += var / (dt * dt);
+    }
     symmetrize<kStateSize>(P);
   }
 };

@@ -250,10 +250,12 @@ void FuseEstimator::count_absolute(Snapshot& s, utime_t t, bool accepted, bool l
   // afresh from the measurements (as a tag without a prior starts), instead of a start sigma
   // around a position metres off, widened step by step.
   constexpr int kPriorRefuted = 4;
+  if (!accepted) s.accepted_in_row = 0;
   if (accepted) {
     s.last_absolute = t;
     s.last_horizontal = t;
     s.rejections = 0;
+    ++s.accepted_in_row;
     s.prior_only = false;
   } else if (++s.rejections >= kPriorRefuted && s.prior_only) {
     s.prior_refuted = true;
