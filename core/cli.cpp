@@ -37,6 +37,12 @@ void add_common_options(CLI::App& app, CommonOptions& opts, CommonFlags flags) {
                    "kernel caps it at net.core.rmem_max (docs/networking.md#loss)")
         ->check(CLI::Range(0, 1 << 30))
         ->capture_default_str();
+    app.add_option("--lcm-receiver", opts.lcm_receiver,
+                   "who reads a udpm:// bus: liblcm (its receive thread, --lcm-queue per "
+                   "subscription) or direct (this process's loop reads the socket: one wake-up "
+                   "and two system calls less per message; docs/networking.md#receivers)")
+        ->check(CLI::IsMember({"liblcm", "direct"}))
+        ->capture_default_str();
   }
   if (flags.site) {
     app.add_option("--site", opts.site_path,

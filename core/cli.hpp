@@ -25,6 +25,10 @@ struct CommonOptions {
   // docs/networking.md#loss
   int lcm_queue = kDefaultLcmQueue;
   int lcm_recv_buf = kDefaultRecvBufBytes;
+  // Who reads a udpm bus (--lcm-receiver): "liblcm" (its receive thread and queues) or "direct"
+  // (the process's own loop reads the socket: core/lcm_udpm_receiver.hpp). A program may set
+  // its own default before add_common_options(); other URLs are always liblcm's.
+  std::string lcm_receiver = "liblcm";
   // The tags this instance handles (--tags: ids and globs, comma-separated; --shard K/N), for
   // programs that offer them (CommonFlags::tags; core/tag_selector.hpp). Empty: every tag.
   std::string tags;

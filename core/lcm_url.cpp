@@ -87,10 +87,24 @@ int lcm_url_recv_buf(const std::string& url) {
   return static_cast<int>(std::clamp(std::strtol(v->c_str(), nullptr, 0), 0L, long{INT32_MAX}));
 }
 
+namespace {
+// A udpm URL's "GROUP[:PORT]" part.
+std::string udpm_target(const std::string& url) {
+  const size_t q = url.find('?');
+  return url.substr(7, q == std::string::npos ? q : q - 7);
+}
+}  // namespace
+
+std::string lcm_url_udpm_group(const std::string& url) {
+  if (!is_udpm(url)) return "";
+  const std::string target = udpm_target(url);
+  const std::string group = target.substr(0, target.rfind(':'));
+  return group.empty() ? "239.255.76.67" : group;
+}
+
 uint16_t lcm_url_udpm_port(const std::string& url) {
   if (!is_udpm(url)) return 0;
-  const size_t q = url.find('?');
-  const std::string target = url.substr(7, q == std::string::npos ? q : q - 7);
+  const std::string target = udpm_target(url);
   const size_t colon = target.rfind(':');
   if (colon == std::string::npos) return 7667;
   const long port = std::strtol(target.c_str() + colon + 1, nullptr, 10);

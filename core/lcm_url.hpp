@@ -28,6 +28,9 @@ std::string lcm_url_with_recv_buf(const std::string& url, int recv_buf_bytes);
 int lcm_url_recv_buf(const std::string& url);
 // The port of a udpm URL (7667 when it names none), or 0 when it is not udpm.
 uint16_t lcm_url_udpm_port(const std::string& url);
+// The multicast group of a udpm URL (LCM's 239.255.76.67 when it names none), or "" when it is
+// not udpm.
+std::string lcm_url_udpm_group(const std::string& url);
 
 // Opens LCM on `url` (empty: default) with recv_buf_size added as lcm_url_with_recv_buf() does.
 // Throws LcmOpenError with one line saying which URL failed and why (liblcm's own messages

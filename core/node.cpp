@@ -58,9 +58,21 @@ Node::Node(std::string name, const CommonOptions& opts)
     sigprocmask(SIG_SETMASK, &old_sigmask_, nullptr);
     throw LcmOpenError(std::string("signalfd: ") + std::strerror(errno));
   }
-  // For udpm this sets up reception, including liblcm's multicast self-test: do it once, here,
-  // and fail loudly rather than run deaf.
-  lcm_fd_ = lcm_->getFileno();
+  const std::string url = effective_lcm_url(opts.lcm_url);
+  if (opts.lcm_receiver == "direct" && lcm_url_udpm_port(url) != 0) {
+    try {
+      open_direct_receiver(lcm_url_with_recv_buf(url, opts.lcm_recv_buf));
+    } catch (...) {
+      close(signal_fd_);
+      sigprocmask(SIG_SETMASK, &old_sigmask_, nullptr);
+      throw;
+    }
+    lcm_fd_ = direct_->fd();
+  } else {
+    // For udpm this sets up reception, including liblcm's multicast self-test: do it once,
+    // here, and fail loudly rather than run deaf.
+    lcm_fd_ = lcm_->getFileno();
+  }
   if (lcm_fd_ < 0) {
     close(signal_fd_);
     sigprocmask(SIG_SETMASK, &old_sigmask_, nullptr);
@@ -80,6 +92,70 @@ Node::~Node() {
   sigprocmask(SIG_SETMASK, &old_sigmask_, nullptr);
 }
 
+void Node::open_direct_receiver(const std::string& url) {
+  direct_ = std::make_unique<LcmUdpmReceiver>(url);
+  // liblcm's self-test, ours: a message to the group must come back to this socket, or the
+  // process would run deaf (no multicast route, a firewall, a group the interface did not join).
+  static constexpr std::string_view kChannel = "LCM_SELF_TEST";
+  static constexpr std::string_view kText = "lcm self test";
+  bool heard = false;
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(2);
+  auto next_send = std::chrono::steady_clock::now();
+  while (!heard && std::chrono::steady_clock::now() < deadline) {
+    if (std::chrono::steady_clock::now() >= next_send) {
+      lcm_->publish(std::string(kChannel), kText.data(), static_cast<unsigned>(kText.size()));
+      next_send += std::chrono::milliseconds(200);
+    }
+    pollfd p{direct_->fd(), POLLIN, 0};
+    if (poll(&p, 1, 50) <= 0) continue;
+    // What else arrives before the process subscribes is for nobody here (as with liblcm).
+    direct_->read_batch(
+        [&](const LcmReassembler::Message& m, int64_t) {
+          heard = heard || (m.channel == kChannel &&
+                            std::string_view(reinterpret_cast<const char*>(m.data), m.size) ==
+                                kText);
+        },
+        nullptr);
+  }
+  if (!heard) {
+    direct_.reset();
+    throw LcmOpenError("LCM on '" + url +
+                       "' cannot receive (its multicast self-test got nothing back in 2 s); see "
+                       "docs/networking.md");
+  }
+}
+
+const Node::DirectRoute& Node::direct_route(std::string_view channel) {
+  if (direct_routes_stale_) {
+    direct_routes_.clear();
+    direct_routes_stale_ = false;
+  }
+  if (auto it = direct_routes_.find(channel); it != direct_routes_.end()) return *it;
+  // A bus of ever new names (a fault, an attack) must not grow this without bound.
+  if (direct_routes_.size() >= 4096) direct_routes_.clear();
+  std::vector<RawHandler*> handlers;
+  const std::string name(channel);
+  for (const auto& sub : direct_subscriptions_)
+    if (std::regex_match(name, sub.channel)) handlers.push_back(sub.handler);
+  return *direct_routes_.emplace(name, std::move(handlers)).first;
+}
+
+bool Node::read_direct() {
+  const int n = direct_->read_batch(
+      [this](const LcmReassembler::Message& m, int64_t recv_utime) {
+        const DirectRoute& route = direct_route(m.channel);
+        if (route.second.empty()) return;
+        lcm::ReceiveBuffer rbuf{const_cast<uint8_t*>(m.data), static_cast<uint32_t>(m.size),
+                                recv_utime};
+        for (RawHandler* h : route.second) (*h)(&rbuf, route.first);
+      },
+      [this](const std::string& why) {
+        ++counters_.parse_errors;
+        report_error("LCM datagram dropped: " + why);
+      });
+  return n >= 0;
+}
+
 void Node::publish_raw(const std::string& channel, const void* data, size_t size) {
   if (size > UINT32_MAX || lcm_->publish(channel, data, static_cast<unsigned>(size)) != 0) {
     ++counters_.drops;
@@ -92,7 +168,8 @@ void Node::publish_raw(const std::string& channel, const void* data, size_t size
 void Node::subscribe_raw(const std::string& channel, RawHandler handler) {
   // Every message that reaches us is counted, decodable or not. An exception from a handler
   // must not unwind through liblcm's C dispatch: it is counted and reported instead.
-  QueueWatch* watch = opts_.lcm_queue > 0 ? &queue_watches_.emplace_back() : nullptr;
+  QueueWatch* watch =
+      opts_.lcm_queue > 0 && !direct_ ? &queue_watches_.emplace_back() : nullptr;
   handlers_.push_back([this, watch, h = std::move(handler)](const lcm::ReceiveBuffer* rbuf,
                                                             const std::string& chan) {
     ++counters_.msgs_in;
@@ -105,6 +182,19 @@ void Node::subscribe_raw(const std::string& channel, RawHandler handler) {
       report_error("channel " + chan + ": handler failed: " + e.what());
     }
   });
+  if (direct_) {
+    // No queue here: the socket's receive buffer is the only one, and what it drops the kernel
+    // counts (kernel_drops).
+    try {
+      direct_subscriptions_.push_back({std::regex(channel), &handlers_.back()});
+    } catch (const std::regex_error& e) {
+      handlers_.pop_back();
+      throw LcmOpenError("cannot subscribe to channel '" + channel + "': " + e.what());
+    }
+    // Matched again from the next message on (a handler running now may be the subscriber).
+    direct_routes_stale_ = true;
+    return;
+  }
   lcm::Subscription* sub = lcm_->subscribeFunction(
       channel,
       +[](const lcm::ReceiveBuffer* rbuf, const std::string& chan, RawHandler* h) {
@@ -184,10 +274,13 @@ BusLoss Node::loss() {
   BusLoss l;
   l.kernel_drops = kernel_drops_.update();
   for (const auto& w : queue_watches_) l.queue_drops += std::max<int64_t>(0, w.seen - w.delivered);
+  // A fragmented message given up (a fragment lost) is lost on the way in, as a queue's drop.
+  if (direct_) l.queue_drops += direct_->counts().incomplete + direct_->counts().too_large;
   l.seq = seq_loss_.counts();
   l.recv_buf_bytes = recv_buf_bytes_;
   l.recv_buf_requested = recv_buf_requested_;
   l.lcm_queue = opts_.lcm_queue;
+  l.receiver = direct_ ? "direct" : "liblcm";
   return l;
 }
 
@@ -202,7 +295,8 @@ std::string BusLoss::json() const {
          ", \"seq_restarts\": " + std::to_string(seq.restarts) +
          ", \"recv_buf_bytes\": " + std::to_string(recv_buf_bytes) +
          ", \"recv_buf_requested\": " + std::to_string(recv_buf_requested) +
-         ", \"lcm_queue\": " + std::to_string(lcm_queue) + "}";
+         ", \"lcm_queue\": " + std::to_string(lcm_queue) + ", \"receiver\": \"" + receiver +
+         "\"}";
 }
 
 void Node::add_timer(double period_s, std::function<void()> fn) {
@@ -249,7 +343,11 @@ bool Node::spin_once(int timeout_ms) {
     return false;
   }
   if (n > 0 && (fds[0].revents & POLLIN)) {
-    if (lcm_->handle() != 0) report_error("lcm handle() failed");
+    if (direct_) {
+      if (!read_direct()) report_error(std::string("reading the LCM socket: ") + std::strerror(errno));
+    } else if (lcm_->handle() != 0) {
+      report_error("lcm handle() failed");
+    }
   } else if (n > 0 && (fds[0].revents & (POLLERR | POLLHUP | POLLNVAL))) {
     // The LCM socket is gone: nothing more can arrive. Stop rather than spin.
     state_ = health_t::STATE_ERROR;

@@ -13,12 +13,16 @@
 #include <list>
 #include <map>
 #include <memory>
+#include <regex>
 #include <set>
 #include <stdexcept>
 #include <string>
+#include <string_view>
+#include <unordered_map>
 #include <vector>
 
 #include "core/cli.hpp"
+#include "core/lcm_udpm_receiver.hpp"
 #include "core/logging.hpp"
 #include "core/seq_loss.hpp"
 #include "core/socket_drops.hpp"
@@ -40,7 +44,8 @@ struct BusLoss {
   SeqLossCounts seq;          // senders' sequence numbers (uwb_range_t, uwb_rx_t, ble_aoa_t)
   int32_t recv_buf_bytes = -1;       // the LCM receive socket's SO_RCVBUF as granted; -1 unknown
   int32_t recv_buf_requested = 0;    // what the URL asked for (0: the kernel's default)
-  int lcm_queue = 0;                 // --lcm-queue
+  int lcm_queue = 0;                 // --lcm-queue (liblcm's receiver only)
+  std::string receiver = "liblcm";   // --lcm-receiver: who read the bus ("liblcm" or "direct")
   // A JSON object of the above (ips-record's sidecar "loss").
   std::string json() const;
 };
@@ -122,6 +127,8 @@ class Node {
   NodeCounters& counters() { return counters_; }
   // Reads the kernel's counters now and returns all loss figures.
   BusLoss loss();
+  // True when this process reads its udpm bus itself (--lcm-receiver direct).
+  bool direct_receiver() const { return direct_ != nullptr; }
   // Reports an error in health_t and logs it at a rate limit. A process in STATE_OK becomes
   // STATE_DEGRADED, and returns to STATE_OK once no error has been reported for
   // degraded_hold_s (last_error keeps the text). A state set with set_state() is kept as set.
@@ -168,6 +175,12 @@ class Node {
   void dispatch_timers();
   void count_sequence(const lcm::ReceiveBuffer* rbuf);
   void measure_recv_buf();
+  // --lcm-receiver direct: opens the socket and proves it hears the group (as liblcm's
+  // self-test does); reads one batch and hands each message to the subscriptions that match.
+  void open_direct_receiver(const std::string& url);
+  bool read_direct();
+  using DirectRoute = std::pair<const std::string, std::vector<RawHandler*>>;
+  const DirectRoute& direct_route(std::string_view channel);
   // One per subscription: messages on its channels that reached us (a shadow subscription with
   // a longer queue sees them) against those liblcm handed to it; the difference is what its
   // queue dropped (liblcm 1.3 counts nothing itself).
@@ -180,6 +193,20 @@ class Node {
   CommonOptions opts_;
   std::unique_ptr<lcm::LCM> lcm_;
   std::list<RawHandler> handlers_;  // stable addresses: LCM keeps a pointer to each
+  std::unique_ptr<LcmUdpmReceiver> direct_;
+  struct DirectSubscription {
+    std::regex channel;  // matched whole, as liblcm matches "^channel$"
+    RawHandler* handler;
+  };
+  std::vector<DirectSubscription> direct_subscriptions_;
+  // The handlers of each channel name heard (matched once; a new subscription clears it).
+  struct NameHash {
+    using is_transparent = void;
+    size_t operator()(std::string_view s) const { return std::hash<std::string_view>{}(s); }
+  };
+  std::unordered_map<std::string, std::vector<RawHandler*>, NameHash, std::equal_to<>>
+      direct_routes_;
+  bool direct_routes_stale_ = false;
   std::vector<Timer> timers_;
   struct Watch {
     int fd;

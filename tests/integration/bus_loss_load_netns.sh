@@ -5,7 +5,9 @@
 # receive buffer. Every message the simulator published (the same seed written to a file is the
 # reference) is in the recording, or the sidecar's "loss" says how many are missing: recorded +
 # lost >= published, and with nothing lost nothing is missing. HEALTH of the simulator reports
-# no publish failure. Exit 77 (skipped) when no network namespace can be made here.
+# no publish failure. A second argument `direct` runs ips-record with --lcm-receiver direct (its
+# own loop reads the socket, core/lcm_udpm_receiver.hpp). Exit 77 (skipped) when no network
+# namespace can be made here.
 set -euo pipefail
 BIN=$(cd "$1" && pwd)
 HERE=$(cd "$(dirname "$0")" && pwd)
@@ -17,11 +19,13 @@ START=1767225600000000
 WALKERS=50
 [ "${IPS_SANITIZED:-0}" = "1" ] && WALKERS=20
 DURATION=8
+RECEIVER=${2:-liblcm}
 
 "$BIN/ips-bus-check" --timeout 30 || fail "multicast does not loop back inside the namespace"
 "$BIN/ips-sim" --scenario lab --seed 3 --tags $WALKERS --duration $DURATION --start-utime $START \
   --out "$WORK/ref.lcm" --log-level warn
-"$BIN/ips-record" --out "$WORK/rec.lcm" --site-wait 0 --log-level warn 2>"$WORK/record.err" &
+"$BIN/ips-record" --out "$WORK/rec.lcm" --site-wait 0 --log-level warn --lcm-receiver "$RECEIVER" \
+  2>"$WORK/record.err" &
 rec=$!; pids+=($rec)
 "$BIN/ips-bus-check" --wait-for ips-record --timeout 60 || fail "ips-record did not come up"
 "$BIN/ips-sim" --scenario lab --seed 3 --tags $WALKERS --duration $DURATION --start-utime $START \
@@ -43,10 +47,10 @@ sync_probe() {
 }
 sync_probe
 stop $rec ips-record
-python3 - "$WORK" $WALKERS <<'PY' || fail "loss not accounted for (see above)"
+python3 - "$WORK" $WALKERS "$RECEIVER" <<'PY' || fail "loss not accounted for (see above)"
 import glob, json, os, sys
 import lcm_log, lcm_messages
-work, walkers = sys.argv[1], int(sys.argv[2])
+work, walkers, receiver = sys.argv[1], int(sys.argv[2]), sys.argv[3]
 ref, _, _ = lcm_log.events(os.path.join(work, 'ref.lcm'))
 ref = [(c, d) for c, _, d in ref if c != 'HEALTH']
 rec = []
@@ -67,12 +71,13 @@ it = iter(ref)
 assert all(any(r == g for r in it) for g in got), 'a recorded message is not in the reference'
 missing = published - len(got)
 lost = loss['lost'] + side['dropped']
-print(f'{walkers} walkers: published {published}, recorded {len(got)}, missing {missing}; '
+print(f'{walkers} walkers, {receiver} receiver: published {published}, recorded {len(got)}, missing {missing}; '
       f'sidecar: kernel_drops {loss["kernel_drops"]}, queue_drops {loss["queue_drops"]}, '
       f'dropped {side["dropped"]}, seq_lost {loss["seq_lost"]}, '
       f'recv_buf_bytes {loss["recv_buf_bytes"]}, lcm_queue {loss["lcm_queue"]}')
 assert loss['recv_buf_bytes'] > 0, loss  # udpm: liblcm's socket was found
 assert loss['lcm_queue'] == 20000, loss
+assert loss['receiver'] == receiver, loss
 assert missing >= 0
 if lost == 0:
     assert missing == 0, f'{missing} messages missing and none reported lost'
@@ -81,4 +86,4 @@ else:
     assert missing <= lost, f'{missing} missing but only {lost} reported lost'
     assert lost - missing <= 10 * len(sim_health) + 20, f'{lost} reported lost, {missing} missing'
 PY
-echo "ok: ips-record at $WALKERS walkers: every loss counted"
+echo "ok: ips-record at $WALKERS walkers ($RECEIVER receiver): every loss counted"

@@ -16,7 +16,9 @@ unset LCM_DEFAULT_URL
 err=$(mktemp)
 trap 'rm -f "$err"' EXIT
 failures=0
-for cmd in "ips-bus-check" "ips-uwb-twr --site $ROOT/config/sites/lab.yaml" "ips-sim --scenario lab"; do
+# ips-fuse with its own receiver (--lcm-receiver direct), the others through liblcm's.
+for cmd in "ips-bus-check" "ips-uwb-twr --site $ROOT/config/sites/lab.yaml" "ips-sim --scenario lab" \
+  "ips-fuse --site $ROOT/config/sites/lab.yaml --lcm-receiver direct"; do
   start=$(date +%s%N)
   status=0
   # shellcheck disable=SC2086

@@ -1,0 +1,166 @@
+#include "core/lcm_wire.hpp"
+
+#include <algorithm>
+#include <cstring>
+
+namespace ips {
+
+namespace {
+constexpr uint32_t kMagicShort = 0x4c433032;  // "LC02"
+constexpr uint32_t kMagicLong = 0x4c433033;   // "LC03"
+constexpr size_t kShortHeader = 8;
+constexpr size_t kLongHeader = 20;
+
+uint32_t be32(const uint8_t* p) {
+  return uint32_t{p[0]} << 24 | uint32_t{p[1]} << 16 | uint32_t{p[2]} << 8 | uint32_t{p[3]};
+}
+uint16_t be16(const uint8_t* p) { return static_cast<uint16_t>(p[0] << 8 | p[1]); }
+
+// The NUL-terminated channel at `p` (at most `n` bytes to look at): its length, or -1 when there
+// is no NUL within LCM's longest name, or the name is empty.
+long channel_length(const uint8_t* p, size_t n) {
+  const size_t look = std::min(n, LcmReassembler::kMaxChannelBytes + 1);
+  const void* nul = std::memchr(p, 0, look);
+  if (!nul) return -1;
+  const long len = static_cast<const uint8_t*>(nul) - p;
+  return len > 0 ? len : -1;
+}
+}  // namespace
+
+bool LcmReassembler::malformed(std::string* why, const char* reason) {
+  ++counts_.malformed;
+  if (why) *why = reason;
+  return false;
+}
+
+bool LcmReassembler::feed(const uint8_t* data, size_t size, uint64_t sender, Message& out,
+                          std::string* why) {
+  ++counts_.datagrams;
+  if (size < kShortHeader) return malformed(why, "shorter than an LCM header");
+  const uint32_t magic = be32(data);
+  if (magic == kMagicLong) return feed_fragment(data, size, sender, out, why);
+  if (magic != kMagicShort) return malformed(why, "not an LCM datagram (magic)");
+  const long chan = channel_length(data + kShortHeader, size - kShortHeader);
+  if (chan < 0) return malformed(why, "no channel name of 1 to 63 bytes");
+  const size_t at = kShortHeader + static_cast<size_t>(chan) + 1;
+  out.channel = std::string_view(reinterpret_cast<const char*>(data + kShortHeader),
+                                 static_cast<size_t>(chan));
+  out.data = data + at;
+  out.size = size - at;
+  out.seqno = be32(data + 4);
+  ++counts_.messages;
+  return true;
+}
+
+size_t LcmReassembler::in_flight() const {
+  return static_cast<size_t>(
+      std::count_if(partials_.begin(), partials_.end(), [](const Partial& p) { return p.active; }));
+}
+
+void LcmReassembler::give_up(Partial& p) {
+  if (!p.active) return;
+  ++counts_.incomplete;
+  p.active = false;
+  in_flight_bytes_ -= p.payload.size();
+  p.payload = std::vector<uint8_t>();
+}
+
+LcmReassembler::Partial& LcmReassembler::partial_for(uint64_t sender) {
+  for (auto& p : partials_)
+    if (p.sender == sender) return p;
+  if (partials_.size() < kMaxSenders) {
+    partials_.emplace_back();
+    partials_.back().sender = sender;
+    return partials_.back();
+  }
+  // The sender heard least recently gives its slot (and what it had in flight) up.
+  auto oldest = std::min_element(
+      partials_.begin(), partials_.end(),
+      [](const Partial& a, const Partial& b) { return a.last_used < b.last_used; });
+  give_up(*oldest);
+  oldest->sender = sender;
+  return *oldest;
+}
+
+bool LcmReassembler::feed_fragment(const uint8_t* data, size_t size, uint64_t sender,
+                                   Message& out, std::string* why) {
+  if (size < kLongHeader) return malformed(why, "shorter than an LCM fragment header");
+  const uint32_t seqno = be32(data + 4);
+  const uint32_t msg_size = be32(data + 8);
+  const uint32_t offset = be32(data + 12);
+  const uint16_t number = be16(data + 16);
+  const uint16_t fragments = be16(data + 18);
+  if (fragments == 0 || number >= fragments)
+    return malformed(why, "fragment number out of its count");
+  if (msg_size > uint64_t{fragments} * kMaxDatagramBytes)
+    return malformed(why, "fragment count too small for the message size");
+  size_t at = kLongHeader;
+  long chan = 0;
+  if (number == 0) {
+    chan = channel_length(data + at, size - at);
+    if (chan < 0) return malformed(why, "first fragment without a channel name of 1 to 63 bytes");
+    at += static_cast<size_t>(chan) + 1;
+  }
+  const size_t len = size - at;
+  if (uint64_t{offset} + len > msg_size) return malformed(why, "fragment past the message's end");
+  if (msg_size > kMaxMessageBytes) {
+    // Counted once per message (at its first fragment), not assembled.
+    if (number == 0) ++counts_.too_large;
+    if (why) *why = "fragmented message larger than 16 MiB";
+    return false;
+  }
+
+  Partial& p = partial_for(sender);
+  p.last_used = ++clock_;
+  if (p.active && (p.seqno != seqno || p.size != msg_size || p.fragments != fragments)) {
+    // A new message from this sender while the last one lacks fragments: those are lost (one
+    // message in flight per sender, as liblcm keeps it).
+    give_up(p);
+  }
+  if (!p.active) {
+    while (in_flight_bytes_ + msg_size > kMaxInFlightBytes) {
+      auto oldest = partials_.end();
+      for (auto it = partials_.begin(); it != partials_.end(); ++it)
+        if (it->active && &*it != &p &&
+            (oldest == partials_.end() || it->last_used < oldest->last_used))
+          oldest = it;
+      if (oldest == partials_.end()) break;
+      give_up(*oldest);
+    }
+    p.active = true;
+    p.seqno = seqno;
+    p.size = msg_size;
+    p.fragments = fragments;
+    p.received = 0;
+    p.bytes = 0;
+    p.channel.clear();
+    p.payload.assign(msg_size, 0);
+    p.have.assign(fragments, false);
+    in_flight_bytes_ += msg_size;
+  }
+  if (p.have[number]) return false;  // a duplicate: the kernel or a switch sent it twice
+  p.have[number] = true;
+  ++p.received;
+  p.bytes += len;
+  if (number == 0)
+    p.channel.assign(reinterpret_cast<const char*>(data + kLongHeader), static_cast<size_t>(chan));
+  if (len > 0) std::memcpy(p.payload.data() + offset, data + at, len);
+  if (p.received < p.fragments) return false;
+  p.active = false;
+  in_flight_bytes_ -= p.payload.size();
+  // The whole message moves out of the sender's slot: at most one assembled message is held
+  // besides those in flight.
+  done_.swap(p.payload);
+  p.payload = std::vector<uint8_t>();
+  if (p.bytes != p.size)  // every fragment came and they do not add up (overlapping, short)
+    return malformed(why, "fragments do not add up to the message size");
+  done_channel_ = p.channel;
+  out.channel = done_channel_;
+  out.data = done_.data();
+  out.size = done_.size();
+  out.seqno = seqno;
+  ++counts_.messages;
+  return true;
+}
+
+}  // namespace ips
