@@ -11,7 +11,8 @@
 #     once;
 #  5. without the run file (another XDG_RUNTIME_DIR) the same processes are MISSING, status 1:
 #     what the pids are for;
-#  6. the run file is gone once the run has ended.
+#  6. the run file is gone once the run has ended;
+#  7. (first) the run's processes hold none of ips-deploy's sockets.
 # Every wait is for a state, at most 60 s. Exit 77 (skipped) when no network namespace can be
 # made here.
 set -euo pipefail
@@ -64,6 +65,16 @@ for _ in $(seq 30); do
   both_up "$s" && break
 done
 both_up "$s" || fail "status did not match the run's processes: $s; run: $(cat "$WORK/run.out")"
+
+# The run's children hold none of ips-deploy's sockets (liblcm opens them without close-on-exec:
+# a child holding ips-deploy's LCM socket counted its drops as its own).
+sockets_of() { find "/proc/$1/fd" -maxdepth 1 -lname 'socket:*' -printf '%l\n' 2>/dev/null | sort; }
+[ -n "$(sockets_of "$deploy")" ] || fail "ips-deploy has no socket to compare with"
+for name in twr fuse; do
+  shared=$(comm -12 <(sockets_of "$deploy") <(sockets_of "$(started_pid $name)"))
+  [ -z "$shared" ] || fail "$name holds ips-deploy's sockets: $shared"
+done
+echo "run: its processes hold none of ips-deploy's $(sockets_of "$deploy" | wc -l) sockets"
 
 # 1: the warning, once, naming both hostnames.
 [ "$(grep -c 'warning: ' "$WORK/run.err")" -eq 1 ] || fail "warnings: $(cat "$WORK/run.err")"

@@ -4,7 +4,9 @@
 #include <signal.h>
 #include <string.h>
 #include <sys/prctl.h>
+#include <sys/resource.h>
 #include <sys/wait.h>
+#include <linux/close_range.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -55,6 +57,10 @@ int start_child(const std::string& path, char* const argv[], char* const envp[],
   int status_pipe[2];
   if (pipe2(status_pipe, O_CLOEXEC) != 0) return errno;
   const pid_t parent = ::getpid();
+  rlimit files{};
+  const int max_fd = ::getrlimit(RLIMIT_NOFILE, &files) == 0 && files.rlim_cur < 1u << 20
+                         ? static_cast<int>(files.rlim_cur)
+                         : 1 << 20;
   const bool search = path.find('/') == std::string::npos;
   const char* file = path.c_str();
   const char* cwd = dir.empty() ? nullptr : dir.c_str();
@@ -84,6 +90,12 @@ int start_child(const std::string& path, char* const argv[], char* const envp[],
         ::dup2(out_fd, STDERR_FILENO) < 0)
       fail(errno);
     if (cwd && ::chdir(cwd) != 0) fail(errno);
+    // Nothing of ips-deploy's but the output: liblcm opens its sockets without close-on-exec, and
+    // a child holding ips-deploy's LCM receive socket counted that socket's drops as its own
+    // (every process of the soak's compute host reported ips-deploy's 15 660, degraded by them).
+    // Close-on-exec rather than closed: the status pipe must reach the exec.
+    if (::close_range(3, ~0U, CLOSE_RANGE_CLOEXEC) != 0)  // before Linux 5.11: one by one
+      for (int fd = 3; fd < max_fd; ++fd) ::fcntl(fd, F_SETFD, FD_CLOEXEC);
     if (search)
       ::execvpe(file, argv, envp);
     else
