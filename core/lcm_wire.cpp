@@ -61,8 +61,9 @@ void LcmReassembler::give_up(Partial& p) {
   if (!p.active) return;
   ++counts_.incomplete;
   p.active = false;
-  in_flight_bytes_ -= p.payload.size();
-  p.payload = std::vector<uint8_t>();
+  in_flight_bytes_ -= p.stored.size();
+  p.stored = std::vector<uint8_t>();
+  p.pieces.clear();
 }
 
 LcmReassembler::Partial& LcmReassembler::partial_for(uint64_t sender) {
@@ -118,43 +119,58 @@ bool LcmReassembler::feed_fragment(const uint8_t* data, size_t size, uint64_t se
     give_up(p);
   }
   if (!p.active) {
-    while (in_flight_bytes_ + msg_size > kMaxInFlightBytes) {
-      auto oldest = partials_.end();
-      for (auto it = partials_.begin(); it != partials_.end(); ++it)
-        if (it->active && &*it != &p &&
-            (oldest == partials_.end() || it->last_used < oldest->last_used))
-          oldest = it;
-      if (oldest == partials_.end()) break;
-      give_up(*oldest);
-    }
     p.active = true;
     p.seqno = seqno;
     p.size = msg_size;
     p.fragments = fragments;
     p.received = 0;
-    p.bytes = 0;
     p.channel.clear();
-    p.payload.assign(msg_size, 0);
+    p.stored.clear();
+    p.pieces.clear();
     p.have.assign(fragments, false);
-    in_flight_bytes_ += msg_size;
   }
   if (p.have[number]) return false;  // a duplicate: the kernel or a switch sent it twice
+  // Room for it: the senders heard least recently give up what they hold.
+  while (in_flight_bytes_ + len > kMaxInFlightBytes) {
+    auto oldest = partials_.end();
+    for (auto it = partials_.begin(); it != partials_.end(); ++it)
+      if (it->active && &*it != &p && !it->stored.empty() &&
+          (oldest == partials_.end() || it->last_used < oldest->last_used))
+        oldest = it;
+    if (oldest == partials_.end()) break;
+    give_up(*oldest);
+  }
   p.have[number] = true;
   ++p.received;
-  p.bytes += len;
   if (number == 0)
     p.channel.assign(reinterpret_cast<const char*>(data + kLongHeader), static_cast<size_t>(chan));
-  if (len > 0) std::memcpy(p.payload.data() + offset, data + at, len);
+  p.pieces.push_back({offset, static_cast<uint32_t>(p.stored.size()), static_cast<uint32_t>(len)});
+  p.stored.insert(p.stored.end(), data + at, data + size);
+  in_flight_bytes_ += len;
   if (p.received < p.fragments) return false;
+  // Every fragment came: they must tile the payload, end to end, from 0 to its size.
+  std::sort(p.pieces.begin(), p.pieces.end(),
+            [](const Partial::Piece& a, const Partial::Piece& b) { return a.offset < b.offset; });
+  uint64_t end = 0;
+  for (const auto& piece : p.pieces) {
+    if (piece.offset != end) break;
+    end += piece.length;
+  }
+  const bool whole = end == p.size;
+  if (whole) {
+    done_.resize(p.size);
+    for (const auto& piece : p.pieces)
+      if (piece.length > 0)
+        std::memcpy(done_.data() + piece.offset, p.stored.data() + piece.at, piece.length);
+    done_channel_ = p.channel;
+  }
   p.active = false;
-  in_flight_bytes_ -= p.payload.size();
-  // The whole message moves out of the sender's slot: at most one assembled message is held
-  // besides those in flight.
-  done_.swap(p.payload);
-  p.payload = std::vector<uint8_t>();
-  if (p.bytes != p.size)  // every fragment came and they do not add up (overlapping, short)
+  in_flight_bytes_ -= p.stored.size();
+  p.stored.clear();
+  p.pieces.clear();
+  if (p.stored.capacity() > (1u << 20)) p.stored = std::vector<uint8_t>();  // a big one: let go
+  if (!whole)  // overlapping or short fragments
     return malformed(why, "fragments do not add up to the message size");
-  done_channel_ = p.channel;
   out.channel = done_channel_;
   out.data = done_.data();
   out.size = done_.size();

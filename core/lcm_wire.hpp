@@ -5,8 +5,8 @@
 // into "LC03" fragments (sequence number, payload size, the fragment's offset in the payload,
 // its number and the count; fragment 0 carries the channel before its share of the payload).
 // Pure: bytes in, whole messages out, every datagram that is not one of these counted by reason.
-// Memory: one reassembly buffer per sender with a message in flight, at most kMaxSenders of
-// them and kMaxInFlightBytes in all.
+// Memory: the fragments received of each sender's message in flight, at most kMaxSenders of
+// them and kMaxInFlightBytes in all, and the last message assembled.
 #include <cstddef>
 #include <cstdint>
 #include <string>
@@ -51,8 +51,9 @@ class LcmReassembler {
             std::string* why = nullptr);
 
   const LcmWireCounts& counts() const { return counts_; }
-  // Fragmented messages still waiting for fragments.
+  // Fragmented messages still waiting for fragments, and the bytes of theirs held.
   size_t in_flight() const;
+  size_t in_flight_bytes() const { return in_flight_bytes_; }
 
  private:
   struct Partial {
@@ -62,10 +63,17 @@ class LcmReassembler {
     uint32_t size = 0;
     uint16_t fragments = 0;
     uint16_t received = 0;
-    uint64_t bytes = 0;
     uint64_t last_used = 0;
     std::string channel;
-    std::vector<uint8_t> payload;
+    // The fragments' bytes as they came (a header claiming megabytes costs only what arrives),
+    // and where each goes: put together when the last one comes.
+    struct Piece {
+      uint32_t offset;  // in the message's payload
+      uint32_t at;      // in `stored`
+      uint32_t length;
+    };
+    std::vector<uint8_t> stored;
+    std::vector<Piece> pieces;
     std::vector<bool> have;  // which fragments arrived (a duplicate is not counted twice)
   };
   bool feed_fragment(const uint8_t* data, size_t size, uint64_t sender, Message& out,

@@ -216,8 +216,8 @@ TEST(LcmWire, FragmentsThatDoNotAddUpAreNotAMessage) {
 }
 
 TEST(LcmWire, MemoryStaysBoundedWhateverFragmentsClaim) {
-  // 40 senders each start a 16 MiB message and never finish it: at most 64 MiB is held, and
-  // every message pushed out is counted.
+  // 40 senders each claim a 16 MiB message and send 1000 bytes of it: what is held is what came
+  // (16 senders' worth at most), and every message pushed out is counted.
   LcmReassembler r;
   LcmReassembler::Message m;
   const uint32_t size = LcmReassembler::kMaxMessageBytes;
@@ -234,8 +234,9 @@ TEST(LcmWire, MemoryStaysBoundedWhateverFragmentsClaim) {
     b.resize(b.size() + 1000, 0xAB);
     EXPECT_FALSE(feed(r, b, sender, m));
   }
-  EXPECT_LE(r.in_flight() * size, LcmReassembler::kMaxInFlightBytes);
-  EXPECT_EQ(r.counts().incomplete, 40 - static_cast<int64_t>(r.in_flight()));
+  EXPECT_EQ(r.in_flight(), LcmReassembler::kMaxSenders);
+  EXPECT_EQ(r.in_flight_bytes(), 1000 * LcmReassembler::kMaxSenders);
+  EXPECT_EQ(r.counts().incomplete, 40 - static_cast<int64_t>(LcmReassembler::kMaxSenders));
   // Larger than 16 MiB: counted, not assembled.
   Bytes huge;
   put32(huge, 0x4c433033);
@@ -248,6 +249,32 @@ TEST(LcmWire, MemoryStaysBoundedWhateverFragmentsClaim) {
   huge.push_back(0);
   EXPECT_FALSE(feed(r, huge, 99, m));
   EXPECT_EQ(r.counts().too_large, 1);
+}
+
+TEST(LcmWire, FragmentsHeldBeyondTheBoundPushOutTheOldestSendersMessage) {
+  // Five senders each send 15 MB of a 16 MiB message (230 fragments of 65 487 bytes): 75 MB
+  // would be held; the first sender's message is given up to keep within 64 MiB.
+  LcmReassembler r;
+  LcmReassembler::Message m;
+  const uint32_t size = LcmReassembler::kMaxMessageBytes;
+  const Bytes chunk(65487, 0x5A);
+  for (uint64_t sender = 1; sender <= 5; ++sender) {
+    for (uint16_t k = 1; k <= 230; ++k) {
+      Bytes b;
+      put32(b, 0x4c433033);
+      put32(b, 7);
+      put32(b, size);
+      put32(b, static_cast<uint32_t>(k) * 65487u);
+      put16(b, k);
+      put16(b, 257);
+      b.insert(b.end(), chunk.begin(), chunk.end());
+      EXPECT_FALSE(feed(r, b, sender, m));
+    }
+    EXPECT_LE(r.in_flight_bytes(), LcmReassembler::kMaxInFlightBytes);
+  }
+  EXPECT_EQ(r.counts().incomplete, 1);
+  EXPECT_EQ(r.in_flight(), 4u);
+  EXPECT_EQ(r.counts().malformed, 0);
 }
 
 }  // namespace
