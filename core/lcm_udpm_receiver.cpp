@@ -65,6 +65,16 @@ LcmUdpmReceiver::LcmUdpmReceiver(const std::string& url) {
   iovecs_.resize(kBatch);
   senders_.resize(kBatch);
   controls_.resize(kBatch * kControlBytes);
+  // Where each datagram goes is set once; read_batch resets only what recvmmsg writes back.
+  for (size_t k = 0; k < kBatch; ++k) {
+    iovecs_[k] = {buffers_.data() + k * kDatagramBytes, kDatagramBytes};
+    msghdr& h = headers_[k].msg_hdr;
+    h = {};
+    h.msg_name = &senders_[k];
+    h.msg_iov = &iovecs_[k];
+    h.msg_iovlen = 1;
+    h.msg_control = controls_.data() + k * kControlBytes;
+  }
 }
 
 LcmUdpmReceiver::~LcmUdpmReceiver() {
@@ -72,18 +82,11 @@ LcmUdpmReceiver::~LcmUdpmReceiver() {
 }
 
 int LcmUdpmReceiver::read_batch(const MessageFn& on_message, const RejectFn& on_reject) {
-  for (int i = 0; i < kBatch; ++i) {
-    const auto k = static_cast<size_t>(i);
-    iovecs_[k] = {buffers_.data() + k * kDatagramBytes, kDatagramBytes};
-    msghdr& h = headers_[k].msg_hdr;
-    h = {};
-    h.msg_name = &senders_[k];
-    h.msg_namelen = sizeof(sockaddr_in);
-    h.msg_iov = &iovecs_[k];
-    h.msg_iovlen = 1;
-    h.msg_control = controls_.data() + k * kControlBytes;
-    h.msg_controllen = kControlBytes;
-    headers_[k].msg_len = 0;
+  for (mmsghdr& m : headers_) {
+    m.msg_hdr.msg_namelen = sizeof(sockaddr_in);
+    m.msg_hdr.msg_controllen = kControlBytes;
+    m.msg_hdr.msg_flags = 0;
+    m.msg_len = 0;
   }
   const int n = recvmmsg(fd_, headers_.data(), kBatch, MSG_DONTWAIT, nullptr);
   if (n < 0) return errno == EAGAIN || errno == EWOULDBLOCK || errno == EINTR ? 0 : -1;
