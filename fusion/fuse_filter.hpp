@@ -103,12 +103,7 @@ struct FuseFilter {
   // axis.
   void predict_displacement(const Eigen::Vector3d& d, double dt, double sigma_m,
                             double psi_walk_var_per_s) {
-    const double c = std::cos(x(kPsi)), s = std::sin(x(kPsi));
-    const Eigen::Vector3d moved(c * d.x() - s * d.y(), s * d.x() + c * d.y(), planar ? 0.0 : d.z());
-    // d(moved)/d(psi)
-    const Eigen::Vector3d dmoved(-s * d.x() - c * d.y(), c * d.x() - s * d.y(), 0.0);
-    x.head<3>() += moved;
-    x.segment<3>(kVel) = moved / dt;
+    const Eigen::Vector3d dmoved = move_by(d, dt);
     // P = F P F^T with F = I but for column kPsi: dmoved in rows 0-2, dmoved / dt in rows
     // kVel..kVel+2 (whose own diagonal is 0). Every entry of F P and of (F P) F^T is at most two
     // nonzero terms, so these are the full product's numbers without its zeros (+ 0.0: a sum of
@@ -120,12 +115,7 @@ struct FuseFilter {
     for (int j = 0; j < 3; ++j) P.col(j) += dmoved(j) * P.col(kPsi);
     for (int j = 0; j < 3; ++j)
       for (int i = 0; i < kStateSize; ++i) P(i, kVel + j) = P(i, kPsi) * dv(j) + 0.0;
-    const double var = sigma_m * sigma_m;
-    const int n = planar ? 2 : 3;
-    for (int i = 0; i < n; ++i) {
-      P(i, i) += var;
-      P(kVel + i, kVel + i) += var / (dt * dt);
-    }
+    add_displacement_noise(dt, sigma_m);
     P(kPsi, kPsi) += psi_walk_var_per_s * dt;
     symmetrize<kStateSize>(P);
   }
@@ -136,24 +126,36 @@ struct FuseFilter {
   // new frame's psi 2.3 rad from the truth while a jumped tag was re-acquired: the soak's fault
   // 131), and the track still moves as the displacements say.
   void predict_displacement_untied(const Eigen::Vector3d& d, double dt, double sigma_m) {
-    const double c = std::cos(x(kPsi)), s = std::sin(x(kPsi));
-    const Eigen::Vector3d moved(c * d.x() - s * d.y(), s * d.x() + c * d.y(), planar ? 0.0 : d.z());
-    const Eigen::Vector3d dmoved(-s * d.x() - c * d.y(), c * d.x() - s * d.y(), 0.0);
-    x.head<3>() += moved;
-    x.segment<3>(kVel) = moved / dt;
+    const Eigen::Vector3d dmoved = move_by(d, dt);
     const Eigen::Matrix3d turn = dmoved * dmoved.transpose() * P(kPsi, kPsi);
-    const int n = planar ? 2 : 3;
-    const double var = sigma_m * sigma_m;
     // The velocity is this displacement's average: known as well as the displacement.
     P.middleRows<3>(kVel).setZero();
     P.middleCols<3>(kVel).setZero();
     P.topLeftCorner<3, 3>() += turn;
     P.block<3, 3>(kVel, kVel) = turn / (dt * dt);
+    add_displacement_noise(dt, sigma_m);
+    symmetrize<kStateSize>(P);
+  }
+
+ private:
+  // Moves the track by a displacement d of the source's frame, turned by psi, and sets the
+  // velocity to its average over dt. Returns d(moved)/d(psi).
+  Eigen::Vector3d move_by(const Eigen::Vector3d& d, double dt) {
+    const double c = std::cos(x(kPsi)), s = std::sin(x(kPsi));
+    const Eigen::Vector3d moved(c * d.x() - s * d.y(), s * d.x() + c * d.y(), planar ? 0.0 : d.z());
+    x.head<3>() += moved;
+    x.segment<3>(kVel) = moved / dt;
+    return {-s * d.x() - c * d.y(), c * d.x() - s * d.y(), 0.0};
+  }
+  // The displacement's own noise (sigma_m per axis) on the position, and on the velocity as its
+  // average over dt.
+  void add_displacement_noise(double dt, double sigma_m) {
+    const double var = sigma_m * sigma_m;
+    const int n = planar ? 2 : 3;
     for (int i = 0; i < n; ++i) {
       P(i, i) += var;
       P(kVel + i, kVel + i) += var / (dt * dt);
     }
-    symmetrize<kStateSize>(P);
   }
 };
 
