@@ -39,9 +39,18 @@ void add_common_options(CLI::App& app, CommonOptions& opts, CommonFlags flags) {
         ->capture_default_str();
     app.add_option("--lcm-receiver", opts.lcm_receiver,
                    "who reads a udpm:// bus: liblcm (its receive thread, --lcm-queue per "
-                   "subscription) or direct (this process's loop reads the socket: one wake-up "
-                   "and two system calls less per message; docs/networking.md#receivers)")
-        ->check(CLI::IsMember({"liblcm", "direct"}))
+                   "subscription), direct (this process's loop reads the socket: one wake-up "
+                   "and two system calls less per message) or auto (direct when the kernel "
+                   "grants the receive buffer asked for, at least 4 MiB, else liblcm; "
+                   "docs/networking.md#receivers)")
+        ->check(CLI::IsMember({"liblcm", "direct", "auto"}))
+        ->capture_default_str();
+    app.add_option("--busy-poll-us", opts.busy_poll_us,
+                   "after each message, poll the bus this long (us) without sleeping: the next "
+                   "message is taken at once instead of after a wake-up, at the cost of a core "
+                   "while messages come; needs the direct receiver (0: sleep at once; "
+                   "docs/networking.md#latency)")
+        ->check(CLI::Range(0, 10000000))
         ->capture_default_str();
   }
   if (flags.site) {

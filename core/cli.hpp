@@ -25,10 +25,15 @@ struct CommonOptions {
   // docs/networking.md#loss
   int lcm_queue = kDefaultLcmQueue;
   int lcm_recv_buf = kDefaultRecvBufBytes;
-  // Who reads a udpm bus (--lcm-receiver): "liblcm" (its receive thread and queues) or "direct"
-  // (the process's own loop reads the socket: core/lcm_udpm_receiver.hpp). A program may set
-  // its own default before add_common_options(); other URLs are always liblcm's.
+  // Who reads a udpm bus (--lcm-receiver): "liblcm" (its receive thread and queues), "direct"
+  // (the process's own loop reads the socket: core/lcm_udpm_receiver.hpp) or "auto" (direct
+  // when the kernel grants the receive buffer asked for, at least 4 MiB, else liblcm). A
+  // program may set its own default before add_common_options() (ips-fuse: auto); other URLs
+  // are always liblcm's.
   std::string lcm_receiver = "liblcm";
+  // After each message, how long the loop polls the bus without sleeping (--busy-poll-us; 0:
+  // it sleeps at once). Only with the direct receiver (liblcm's receive thread sleeps anyway).
+  int busy_poll_us = 0;
   // The tags this instance handles (--tags: ids and globs, comma-separated; --shard K/N), for
   // programs that offer them (CommonFlags::tags; core/tag_selector.hpp). Empty: every tag.
   std::string tags;

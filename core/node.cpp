@@ -18,6 +18,7 @@
 #include "core/lcm_url.hpp"
 #include "core/text_escape.hpp"
 #include "core/version.hpp"
+#include "core/yaml_fields.hpp"
 
 namespace ips {
 
@@ -45,6 +46,15 @@ Node::Node(std::string name, const CommonOptions& opts)
       health_channel_(opts.channel(channel::kHealth)),
       host_(host_name()),
       start_time_(std::chrono::steady_clock::now()) {
+  const std::string url = effective_lcm_url(opts.lcm_url);
+  const bool try_direct = (opts.lcm_receiver == "direct" || opts.lcm_receiver == "auto") &&
+                          lcm_url_udpm_port(url) != 0;
+  const std::string busy_poll_refused =
+      "--busy-poll-us needs --lcm-receiver direct on a udpm:// bus (LCM URL '" + url +
+      "'): with liblcm's receiver its own thread sleeps for each message";
+  if (opts.busy_poll_us > 0 && !try_direct) throw ConfigError(busy_poll_refused);
+  busy_poll_ = std::chrono::microseconds(opts.busy_poll_us);
+  last_input_ = start_time_ - busy_poll_;  // no message yet
   // SIGINT/SIGTERM/SIGHUP (the terminal closed) arrive through a signalfd so that the loop ends
   // cleanly between messages.
   sigset_t mask;
@@ -58,25 +68,36 @@ Node::Node(std::string name, const CommonOptions& opts)
     sigprocmask(SIG_SETMASK, &old_sigmask_, nullptr);
     throw LcmOpenError(std::string("signalfd: ") + std::strerror(errno));
   }
-  const std::string url = effective_lcm_url(opts.lcm_url);
-  if (opts.lcm_receiver == "direct" && lcm_url_udpm_port(url) != 0) {
+  // (The mask is set before liblcm starts its receive thread, which inherits it: a signal must
+  // not end the process there.) On a failure below, as it was.
+  const auto undo_signals = [this] {
+    close(signal_fd_);
+    sigprocmask(SIG_SETMASK, &old_sigmask_, nullptr);
+  };
+  if (try_direct) {
     try {
       open_direct_receiver(lcm_url_with_recv_buf(url, opts.lcm_recv_buf));
     } catch (...) {
-      close(signal_fd_);
-      sigprocmask(SIG_SETMASK, &old_sigmask_, nullptr);
+      undo_signals();
       throw;
     }
+    if (opts.lcm_receiver == "auto") choose_receiver(url);
+  }
+  if (direct_) {
     lcm_fd_ = direct_->fd();
   } else {
     // For udpm this sets up reception, including liblcm's multicast self-test: do it once,
     // here, and fail loudly rather than run deaf.
     lcm_fd_ = lcm_->getFileno();
   }
+  if (opts.busy_poll_us > 0 && !direct_) {
+    undo_signals();
+    throw ConfigError(busy_poll_refused + " (--lcm-receiver auto chose liblcm's: the receive "
+                                          "buffer is capped; see docs/networking.md#loss)");
+  }
   if (lcm_fd_ < 0) {
-    close(signal_fd_);
-    sigprocmask(SIG_SETMASK, &old_sigmask_, nullptr);
-    throw LcmOpenError("LCM on '" + effective_lcm_url(opts.lcm_url) +
+    undo_signals();
+    throw LcmOpenError("LCM on '" + url +
                        "' cannot receive (its multicast self-test got nothing back); see "
                        "docs/networking.md");
   }
@@ -123,6 +144,31 @@ void Node::open_direct_receiver(const std::string& url) {
                        "' cannot receive (its multicast self-test got nothing back in 2 s); see "
                        "docs/networking.md");
   }
+}
+
+void Node::choose_receiver(const std::string& url) {
+  // Read directly, the socket's buffer is all that holds a burst while the process is busy;
+  // liblcm's thread empties a small one into its queues. At 100 tags, 208 KiB read directly lost
+  // 305 datagrams in 15 s, liblcm's receiver none (docs/development.md#the-bus-at-scale).
+  const int asked = lcm_url_recv_buf(lcm_url_with_recv_buf(url, opts_.lcm_recv_buf));
+  int granted = 0;
+  socklen_t len = sizeof granted;
+  getsockopt(direct_->fd(), SOL_SOCKET, SO_RCVBUF, &granted, &len);
+  // Linux grants twice what is asked (its bookkeeping); less means net.core.rmem_max capped it.
+  // Read directly, it must also hold what the documented size does (docs/networking.md#loss).
+  const int64_t has = granted / 2;
+  if (asked > 0 && has >= asked && has >= kDefaultRecvBufBytes) {
+    // (debug: a start-up error must stay the one line on stderr)
+    spdlog::debug("{}: --lcm-receiver auto: reading the bus directly (receive buffer {} bytes)",
+                  name_, has);
+    return;
+  }
+  spdlog::info(
+      "{}: --lcm-receiver auto: reading the bus through liblcm's receive thread and queues: the "
+      "receive buffer is {} bytes, and reading directly needs the {} asked for and at least {} "
+      "(docs/networking.md#receivers)",
+      name_, has, asked, kDefaultRecvBufBytes);
+  direct_.reset();
 }
 
 const Node::DirectRoute& Node::direct_route(std::string_view channel) {
@@ -319,6 +365,8 @@ void Node::dispatch_timers() {
 bool Node::spin_once(int timeout_ms) {
   if (stopping_) return false;
   auto now = std::chrono::steady_clock::now();
+  // --busy-poll-us: soon after a message, look again without sleeping.
+  if (now - last_input_ < busy_poll_) timeout_ms = 0;
   for (const auto& t : timers_) {
     // Round up: waking before the deadline would spin.
     auto until = std::chrono::ceil<std::chrono::milliseconds>(t.next - now).count();
@@ -343,6 +391,7 @@ bool Node::spin_once(int timeout_ms) {
     return false;
   }
   if (n > 0 && (fds[0].revents & POLLIN)) {
+    if (busy_poll_.count() > 0) last_input_ = std::chrono::steady_clock::now();
     if (direct_) {
       if (!read_direct()) report_error(std::string("reading the LCM socket: ") + std::strerror(errno));
     } else if (lcm_->handle() != 0) {

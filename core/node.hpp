@@ -178,6 +178,9 @@ class Node {
   // --lcm-receiver direct: opens the socket and proves it hears the group (as liblcm's
   // self-test does); reads one batch and hands each message to the subscriptions that match.
   void open_direct_receiver(const std::string& url);
+  // --lcm-receiver auto: keeps the direct receiver when its socket has the buffer asked for,
+  // else closes it (liblcm's receiver then reads the bus).
+  void choose_receiver(const std::string& url);
   bool read_direct();
   using DirectRoute = std::pair<const std::string, std::vector<RawHandler*>>;
   const DirectRoute& direct_route(std::string_view channel);
@@ -224,6 +227,9 @@ class Node {
   int32_t recv_buf_requested_ = 0;
   int signal_fd_ = -1;
   int lcm_fd_ = -1;
+  // --busy-poll-us, and when the last message came.
+  std::chrono::steady_clock::duration busy_poll_{};
+  std::chrono::steady_clock::time_point last_input_{};
   sigset_t old_sigmask_;
   std::vector<uint8_t> publish_buffer_;
   bool stopping_ = false;

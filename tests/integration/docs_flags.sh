@@ -57,7 +57,7 @@ EOF
 fi
 
 # The flags every program has through core/cli add_common_options (and CLI11's --help).
-COMMON="--help --version --lcm-url --lcm-queue --lcm-recv-buf --lcm-receiver --channel --log-level --site"
+COMMON="--help --version --lcm-url --lcm-queue --lcm-recv-buf --lcm-receiver --busy-poll-us --channel --log-level --site"
 # Programs that only some builds have: their pages may stay when they are not built (ips-bench:
 # where IPS_BUILD_BENCHMARKS is on, not the sanitizer build).
 OPTIONAL="ips-bench"

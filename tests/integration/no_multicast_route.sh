@@ -16,9 +16,11 @@ unset LCM_DEFAULT_URL
 err=$(mktemp)
 trap 'rm -f "$err"' EXIT
 failures=0
-# ips-fuse with its own receiver (--lcm-receiver direct), the others through liblcm's.
+# ips-fuse with its own receiver (--lcm-receiver direct, its default) and with liblcm's, the
+# others through liblcm's.
 for cmd in "ips-bus-check" "ips-uwb-twr --site $ROOT/config/sites/lab.yaml" "ips-sim --scenario lab" \
-  "ips-fuse --site $ROOT/config/sites/lab.yaml --lcm-receiver direct"; do
+  "ips-fuse --site $ROOT/config/sites/lab.yaml" \
+  "ips-fuse --site $ROOT/config/sites/lab.yaml --lcm-receiver liblcm"; do
   start=$(date +%s%N)
   status=0
   # shellcheck disable=SC2086
