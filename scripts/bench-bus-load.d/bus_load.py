@@ -169,10 +169,22 @@ def report(work, shards, rt, recv_buf):
               f'every tag from exactly one shard: {"yes" if one else "NO"}')
         goals.append(('every tag from one shard', 'yes' if one else 'no', 'yes', one))
 
-    lat, base, add = load['latency_us'], load['baseline_us'], load['added_us']
-    print(f'\nlatency (us)          n      p50    p90    p99    max')
-    for what, v in (('range -> pose', lat), ('bus loop (own)', base), ('added by ips-fuse', add)):
-        print(f'{what:<18} {v["n"]:>7} {fmt(v["p50"]):>7} {fmt(v["p90"]):>6} {fmt(v["p99"]):>6} '
+    # As the tool's loop sees them, and by the kernel's receive stamps of its socket
+    # (ips-fuse-latency reads the bus itself): the stamps leave the tool's own wake-ups out, so the
+    # added latency by them is ips-fuse's whole share (its wake-up, its work, its publish), and the
+    # tool's own wake-up beside it is what any subscriber's hop costs on this machine.
+    print(f'\nlatency (us)                                 n      p50    p90    p99    max')
+    rows = (('range -> pose', 'latency_us'), ('bus loop (own range back)', 'baseline_us'),
+            ('added by ips-fuse', 'added_us'), ('by the kernel\'s stamps:', None),
+            ('  a range\'s delivery (publish -> stamp)', 'delivery_us'),
+            ('  a subscriber\'s wake-up (stamp -> read)', 'wake_us'),
+            ('  added by ips-fuse (range -> pose stamp)', 'added_stamp_us'))
+    for what, key in rows:
+        v = load.get(key) if key else None
+        if key is None or v is None:
+            print(what)
+            continue
+        print(f'{what:<42} {v["n"]:>7} {fmt(v["p50"]):>6} {fmt(v["p90"]):>6} {fmt(v["p99"]):>6} '
               f'{fmt(v["max"]):>6}')
     for s in load.get('added_us_by_shard', []):
         print(f'  added, shard {s["shard"]}: {s["n"]} poses, p50 {fmt(s["p50"])}, p99 '
@@ -191,8 +203,8 @@ def report(work, shards, rt, recv_buf):
               f'{fmt(p["peak_mb"], ".1f"):>9}')
 
     limit = 100 if tags <= 10 else 300
-    p99 = add['p99']
-    goals.append((f'ips-fuse p99 added <= {limit} us at {tags} tags', fmt(p99) +
+    p99 = load['added_stamp_us']['p99']
+    goals.append((f'ips-fuse p99 added (stamps) <= {limit} us at {tags} tags', fmt(p99) +
                   (' (load behind)' if behind else ''), f'{limit}', p99 is not None and p99 <= limit))
     goals.append(('every process peak RSS <= 30 MB', f'{worst:.1f} MB', '30 MB', worst <= 30))
     goals.append((f'messages lost on the bus ({"documented 4 MiB" if recv_buf == 4194304 else recv_buf} '

@@ -20,12 +20,15 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
+#include <cstring>
 #include <fstream>
 #include <ips/imu_t.hpp>
 #include <ips/pose_t.hpp>
 #include <ips/uwb_range_t.hpp>
 #include <lcm/lcm-cpp.hpp>
 #include <map>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <random>
 #include <sstream>
@@ -33,7 +36,10 @@
 #include <utility>
 #include <vector>
 
+#include "core/lcm_udpm_receiver.hpp"
+#include "core/lcm_url.hpp"
 #include "core/tag_selector.hpp"
+#include "core/time.hpp"
 #include "core/version.hpp"
 
 namespace {
@@ -172,71 +178,102 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "ips-fuse-latency: cannot open LCM (%s)\n", o.lcm_url.c_str());
     return 2;
   }
-  // Sent ranges by (tag, utime), with their wall time.
-  std::map<std::pair<std::string, int64_t>, Clock::time_point> sent;
-  std::vector<double> latency_us;
-  // The same ranges as heard back on UWB_RANGE (the loop through the kernel and this process).
-  std::map<std::pair<std::string, int64_t>, Clock::time_point> sent_own;
-  std::vector<double> own_us, added_us;
-  // The added latency by the tag's shard (index 0 for shard 1).
+  // This process reads the bus itself (core/lcm_udpm_receiver.hpp), for the kernel's receive
+  // stamp of every datagram (SO_TIMESTAMP): liblcm's recv_utime is its receive thread's clock
+  // after that thread woke, which puts this process's own wake-up into every figure.
+  const std::string url = ips::effective_lcm_url(o.lcm_url);
+  if (ips::lcm_url_udpm_port(url) == 0) {
+    std::fprintf(stderr, "ips-fuse-latency: '%s' is not a udpm:// URL: the latency is measured "
+                 "on LCM's UDP multicast\n", url.c_str());
+    return 2;
+  }
+  std::unique_ptr<ips::LcmUdpmReceiver> rx;
+  try {
+    rx = std::make_unique<ips::LcmUdpmReceiver>(url);
+  } catch (const ips::LcmOpenError& e) {
+    std::fprintf(stderr, "ips-fuse-latency: %s\n", e.what());
+    return 2;
+  }
+  // Each range measured, by (tag, utime), until both its own copy and its pose have come back.
+  struct Pending {
+    Clock::time_point sent;     // published, by this loop's clock
+    int64_t sent_wall_us = 0;   // the same by the wall clock (the kernel's stamps are wall time)
+    bool heard = false;         // its own copy came back:
+    Clock::time_point heard_at; //   handled by this loop
+    int64_t stamp_us = 0;       //   its kernel receive stamp
+    bool posed = false;         // its pose came back
+  };
+  std::map<std::pair<std::string, int64_t>, Pending> pending;
+  // Per range: publication to pose handled (latency_us); to its own copy handled (own_us, the
+  // bus's loop through the kernel and this process); pose handled minus own copy handled
+  // (added_us: what ips-fuse adds, as this loop sees it). By the kernel's stamps: publication to
+  // the own copy's stamp (delivery_us, the kernel's share), that stamp to its handling here
+  // (wake_us: a subscriber's wake-up and read, the machine's share of any hop), and the pose's
+  // stamp minus the own copy's (added_stamp_us: ips-fuse's whole share, its own wake-up
+  // included, none of this process's).
+  std::vector<double> latency_us, own_us, added_us, delivery_us, wake_us, added_stamp_us;
+  // The added latency by the kernel's stamps, by the tag's shard (index 0 for shard 1).
   std::vector<std::vector<double>> added_by_shard(static_cast<size_t>(o.shards));
-  std::map<std::pair<std::string, int64_t>, Clock::time_point> heard_own;
-  int64_t measured_sent = 0, poses = 0, poses_warmup = 0;
+  int64_t measured_sent = 0, poses = 0, poses_warmup = 0, foreign = 0, undecodable = 0;
   bool measuring = false;
-  struct Handler {
-    std::map<std::pair<std::string, int64_t>, Clock::time_point>* sent;
-    std::vector<double>* latency_us;
-    int64_t* poses;
-    std::map<std::pair<std::string, int64_t>, Clock::time_point>* sent_own;
-    std::vector<double>* own_us;
-    std::map<std::pair<std::string, int64_t>, Clock::time_point>* heard_own;
-    std::vector<double>* added_us;
-    std::vector<std::vector<double>>* added_by_shard;
-    void on_pose(const lcm::ReceiveBuffer*, const std::string&, const ips::pose_t* p) {
-      const auto now = Clock::now();
-      ++*poses;
-      const std::pair<std::string, int64_t> key{p->tag_id, p->utime};
-      const auto it = sent->find(key);
-      if (it == sent->end()) return;
-      latency_us->push_back(std::chrono::duration<double, std::micro>(now - it->second).count());
-      sent->erase(it);
-      const auto own = heard_own->find(key);
-      if (own == heard_own->end()) return;
-      const double added = std::chrono::duration<double, std::micro>(now - own->second).count();
-      added_us->push_back(added);
-      const int shards = static_cast<int>(added_by_shard->size());
-      (*added_by_shard)[static_cast<size_t>(ips::shard_of(p->tag_id, shards) - 1)].push_back(added);
-      heard_own->erase(own);
+  const auto us = [](auto d) { return std::chrono::duration<double, std::micro>(d).count(); };
+  const auto on_pose = [&](const ips::pose_t& p, int64_t stamp_us) {
+    const auto now = Clock::now();
+    ++poses;
+    const auto it = pending.find({p.tag_id, p.utime});
+    if (it == pending.end() || it->second.posed) return;
+    Pending& m = it->second;
+    m.posed = true;
+    latency_us.push_back(us(now - m.sent));
+    if (m.heard) {
+      added_us.push_back(us(now - m.heard_at));
+      const auto added = static_cast<double>(stamp_us - m.stamp_us);
+      added_stamp_us.push_back(added);
+      added_by_shard[static_cast<size_t>(ips::shard_of(p.tag_id, o.shards) - 1)].push_back(added);
+      pending.erase(it);
     }
-    void on_range(const lcm::ReceiveBuffer*, const std::string&, const ips::uwb_range_t* r) {
-      const auto now = Clock::now();
-      const auto it = sent_own->find({r->tag_id, r->utime});
-      if (it == sent_own->end()) return;
-      own_us->push_back(std::chrono::duration<double, std::micro>(now - it->second).count());
-      sent_own->erase(it);
-      (*heard_own)[{r->tag_id, r->utime}] = now;
+  };
+  const auto on_range = [&](const ips::uwb_range_t& r, int64_t stamp_us) {
+    const auto now = Clock::now();
+    const int64_t wall_now = ips::wall_utime_now();
+    const auto it = pending.find({r.tag_id, r.utime});
+    if (it == pending.end() || it->second.heard) return;
+    Pending& m = it->second;
+    m.heard = true;
+    m.heard_at = now;
+    m.stamp_us = stamp_us;
+    own_us.push_back(us(now - m.sent));
+    delivery_us.push_back(static_cast<double>(stamp_us - m.sent_wall_us));
+    wake_us.push_back(static_cast<double>(wall_now - stamp_us));
+    if (m.posed) pending.erase(it);  // (a pose before its range: not seen, but not kept forever)
+  };
+  const auto on_message = [&](const ips::LcmReassembler::Message& msg, int64_t stamp_us) {
+    const int size = static_cast<int>(msg.size);
+    if (msg.channel == "POSE_FUSED") {
+      ips::pose_t p;
+      if (p.decode(msg.data, 0, size) < 0) { ++undecodable; return; }
+      on_pose(p, stamp_us);
+    } else if (msg.channel == "UWB_RANGE") {
+      ips::uwb_range_t r;
+      if (r.decode(msg.data, 0, size) < 0) { ++undecodable; return; }
+      on_range(r, stamp_us);
     }
-  } handler{&sent,    &latency_us, &poses,   &sent_own,
-             &own_us,  &heard_own,  &added_us, &added_by_shard};
-  // liblcm keeps 30 messages per subscription by default and drops the rest without a word: at
-  // 100 tags, while this thread publishes, that lost 0.3 % of the poses (and up to 10 % on a
-  // busier machine), counted as missing though ips-fuse had published them. The programs' default
-  // (--lcm-queue, docs/networking.md#loss) instead.
-  constexpr int kQueue = 20000;
-  bus.subscribe("POSE_FUSED", &Handler::on_pose, &handler)->setQueueCapacity(kQueue);
-  bus.subscribe("UWB_RANGE", &Handler::on_range, &handler)->setQueueCapacity(kQueue);
+  };
 
-  // Waits up to timeout_s for a message, then handles every one that is there (handleTimeout
-  // takes one at a time: a backlog would add to the latencies measured). The wait is to the
-  // microsecond (ppoll): rounded down to poll's milliseconds it was 0 below 1 ms, and at 1000
-  // messages a second and more the tool spun a whole core, which it then took from ips-fuse.
+  // Waits up to timeout_s for a datagram, then handles everything that is there (a backlog would
+  // add to the latencies measured). The wait is to the microsecond (ppoll): rounded down to
+  // poll's milliseconds it was 0 below 1 ms, and at 1000 messages a second and more the tool
+  // spun a whole core, which it then took from ips-fuse.
   auto receive_all = [&](double timeout_s) {
-    pollfd pfd{bus.getFileno(), POLLIN, 0};
+    pollfd pfd{rx->fd(), POLLIN, 0};
     const auto ns = static_cast<long>(std::max(0.0, timeout_s) * 1e9);
     const timespec wait{ns / 1000000000L, ns % 1000000000L};
     int ready = ppoll(&pfd, 1, &wait, nullptr);
     while (ready > 0) {
-      bus.handleTimeout(0);
+      if (rx->read_batch(on_message, [&](const std::string&) { ++foreign; }) < 0) {
+        std::fprintf(stderr, "ips-fuse-latency: reading the bus: %s\n", std::strerror(errno));
+        std::exit(1);
+      }
       ready = poll(&pfd, 1, 0);
     }
   };
@@ -282,12 +319,13 @@ int main(int argc, char** argv) {
       measuring = true;
       measure_start_s = now_s;
       latency_us.clear();
-      sent.clear();
       own_us.clear();
-      sent_own.clear();
       added_us.clear();
+      delivery_us.clear();
+      wake_us.clear();
+      added_stamp_us.clear();
       for (auto& v : added_by_shard) v.clear();
-      heard_own.clear();
+      pending.clear();
       poses_warmup = poses;
       poses = 0;
       if (o.cpu_pid) cpu0 = cpu_seconds(o.cpu_pid);
@@ -308,9 +346,9 @@ int main(int argc, char** argv) {
                       noise(rng);
           r.seq = s.seq++;
           if (measuring && s.next_s >= o.warmup_s) {  // not one due in the warmup, published late
-            const auto now = Clock::now();
-            sent[{id, utime}] = now;
-            sent_own[{id, utime}] = now;
+            Pending& m = pending[{id, utime}];
+            m.sent = Clock::now();
+            m.sent_wall_us = ips::wall_utime_now();
             ++measured_sent;
           }
           bus.publish("UWB_RANGE", &r);
@@ -338,7 +376,7 @@ int main(int argc, char** argv) {
   // The last poses (and the own ranges): at most --drain seconds, less once none is missing.
   const auto drain_end = Clock::now() + std::chrono::duration_cast<Clock::duration>(
                                             std::chrono::duration<double>(o.drain_s));
-  while (Clock::now() < drain_end && !(sent.empty() && sent_own.empty())) receive_all(0.05);
+  while (Clock::now() < drain_end && !pending.empty()) receive_all(0.05);
   const double measured_s =
       std::chrono::duration<double>(Clock::now() - start).count() - measure_start_s;
   const double cpu1 = o.cpu_pid ? cpu_seconds(o.cpu_pid) : 0;
@@ -347,8 +385,10 @@ int main(int argc, char** argv) {
       "%g s measured\n",
       o.tags, o.anchors, o.range_hz, o.tags * o.anchors * o.range_hz, o.imu_hz, o.tags * o.imu_hz,
       o.seconds);
+  const auto missing = static_cast<size_t>(std::count_if(
+      pending.begin(), pending.end(), [](const auto& kv) { return !kv.second.posed; }));
   std::printf("ranges published %lld, poses matched %zu, missing %zu\n",
-              static_cast<long long>(measured_sent), latency_us.size(), sent.size());
+              static_cast<long long>(measured_sent), latency_us.size(), missing);
   std::printf("latency us: p50 %.0f p90 %.0f p99 %.0f p99.9 %.0f max %.0f\n",
               percentile(latency_us, 50), percentile(latency_us, 90), percentile(latency_us, 99),
               percentile(latency_us, 99.9),
@@ -362,12 +402,27 @@ int main(int argc, char** argv) {
               percentile(added_us, 50), percentile(added_us, 90), percentile(added_us, 99),
               added_us.empty() ? std::nan("")
                                : *std::max_element(added_us.begin(), added_us.end()));
+  const auto max_of = [](const std::vector<double>& v) {
+    return v.empty() ? std::nan("") : *std::max_element(v.begin(), v.end());
+  };
+  std::printf("by the kernel's receive stamps (SO_TIMESTAMP), us: a range's delivery p50 %.0f p99 "
+              "%.0f; this process's wake-up and read of it p50 %.0f p90 %.0f p99 %.0f; added by "
+              "ips-fuse (its pose's stamp minus its range's: ips-fuse's wake-up, work and publish) "
+              "p50 %.0f p90 %.0f p99 %.0f max %.0f\n",
+              percentile(delivery_us, 50), percentile(delivery_us, 99), percentile(wake_us, 50),
+              percentile(wake_us, 90), percentile(wake_us, 99), percentile(added_stamp_us, 50),
+              percentile(added_stamp_us, 90), percentile(added_stamp_us, 99),
+              max_of(added_stamp_us));
+  if (foreign + undecodable > 0)
+    std::printf("datagrams not LCM's: %lld; messages that did not decode: %lld\n",
+                static_cast<long long>(foreign), static_cast<long long>(undecodable));
   nlohmann::json out;
   if (o.shards > 1) {
     out["added_us_by_shard"] = nlohmann::json::array();
     for (int k = 1; k <= o.shards; ++k) {
       const std::vector<double>& v = added_by_shard[static_cast<size_t>(k - 1)];
-      std::printf("  shard %d/%d: %zu poses, added p50 %.0f p99 %.0f us\n", k, o.shards, v.size(),
+      std::printf("  shard %d/%d: %zu poses, added (stamps) p50 %.0f p99 %.0f us\n", k, o.shards,
+                  v.size(),
                   percentile(v, 50), percentile(v, 99));
       out["added_us_by_shard"].push_back(
           {{"shard", k}, {"n", v.size()}, {"p50", percentile(v, 50)}, {"p99", percentile(v, 99)}});
@@ -405,10 +460,13 @@ int main(int argc, char** argv) {
     out["anchors"] = o.anchors;
     out["seconds"] = o.seconds;
     out["measured_ranges"] = measured_sent;
-    out["poses_missing"] = sent.size();
+    out["poses_missing"] = missing;
     out["latency_us"] = pct(latency_us);
     out["baseline_us"] = pct(own_us);
     out["added_us"] = pct(added_us);
+    out["delivery_us"] = pct(delivery_us);
+    out["wake_us"] = pct(wake_us);
+    out["added_stamp_us"] = pct(added_stamp_us);
     out["published"] = {{"UWB_RANGE", published_ranges}, {"IMU", published_imu}};
     out["poses_received"] = poses_warmup + poses;
     out["self"] = {{"pid", static_cast<int>(getpid())},
