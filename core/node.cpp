@@ -37,6 +37,20 @@ std::string host_name() {
   if (gethostname(buf, sizeof buf - 1) != 0) return "unknown";
   return buf;
 }
+
+// A socket's receive buffer as the kernel reports it (SO_RCVBUF), or -1.
+int granted_recv_buf(int fd) {
+  int granted = 0;
+  socklen_t len = sizeof granted;
+  if (fd < 0 || getsockopt(fd, SOL_SOCKET, SO_RCVBUF, &granted, &len) != 0) return -1;
+  return granted;
+}
+
+// Linux doubles what it grants (bookkeeping overhead) and caps the request at
+// net.core.rmem_max: less than twice the request means it was capped.
+bool granted_in_full(int granted, int32_t requested) {
+  return int64_t{granted} >= 2 * int64_t{requested};
+}
 }  // namespace
 
 Node::Node(std::string name, const CommonOptions& opts)
@@ -55,6 +69,7 @@ Node::Node(std::string name, const CommonOptions& opts)
   if (opts.busy_poll_us > 0 && !try_direct) throw ConfigError(busy_poll_refused);
   busy_poll_ = std::chrono::microseconds(opts.busy_poll_us);
   last_input_ = start_time_ - busy_poll_;  // no message yet
+  recv_buf_requested_ = lcm_url_recv_buf(lcm_url_with_recv_buf(url, opts.lcm_recv_buf));
   // SIGINT/SIGTERM/SIGHUP (the terminal closed) arrive through a signalfd so that the loop ends
   // cleanly between messages.
   sigset_t mask;
@@ -83,17 +98,17 @@ Node::Node(std::string name, const CommonOptions& opts)
     }
     if (opts.lcm_receiver == "auto") choose_receiver(url);
   }
+  if (opts.busy_poll_us > 0 && !direct_) {
+    undo_signals();
+    throw ConfigError(busy_poll_refused + " (--lcm-receiver auto chose liblcm's: the receive "
+                                          "buffer is capped; see docs/networking.md#loss)");
+  }
   if (direct_) {
     lcm_fd_ = direct_->fd();
   } else {
     // For udpm this sets up reception, including liblcm's multicast self-test: do it once,
     // here, and fail loudly rather than run deaf.
     lcm_fd_ = lcm_->getFileno();
-  }
-  if (opts.busy_poll_us > 0 && !direct_) {
-    undo_signals();
-    throw ConfigError(busy_poll_refused + " (--lcm-receiver auto chose liblcm's: the receive "
-                                          "buffer is capped; see docs/networking.md#loss)");
   }
   if (lcm_fd_ < 0) {
     undo_signals();
@@ -150,14 +165,11 @@ void Node::choose_receiver(const std::string& url) {
   // Read directly, the socket's buffer is all that holds a burst while the process is busy;
   // liblcm's thread empties a small one into its queues. At 100 tags, 208 KiB read directly lost
   // 305 datagrams in 15 s, liblcm's receiver none (docs/development.md#the-bus-at-scale).
-  const int asked = lcm_url_recv_buf(lcm_url_with_recv_buf(url, opts_.lcm_recv_buf));
-  int granted = 0;
-  socklen_t len = sizeof granted;
-  getsockopt(direct_->fd(), SOL_SOCKET, SO_RCVBUF, &granted, &len);
-  // Linux grants twice what is asked (its bookkeeping); less means net.core.rmem_max capped it.
+  const int asked = recv_buf_requested_;
+  const int granted = granted_recv_buf(direct_->fd());
   // Read directly, it must also hold what the documented size does (docs/networking.md#loss).
   const int64_t has = granted / 2;
-  if (asked > 0 && has >= asked && has >= kDefaultRecvBufBytes) {
+  if (asked > 0 && granted_in_full(granted, asked) && has >= kDefaultRecvBufBytes) {
     // (debug: a start-up error must stay the one line on stderr)
     spdlog::debug("{}: --lcm-receiver auto: reading the bus directly (receive buffer {} bytes)",
                   name_, has);
@@ -165,9 +177,9 @@ void Node::choose_receiver(const std::string& url) {
   }
   spdlog::info(
       "{}: --lcm-receiver auto: reading the bus through liblcm's receive thread and queues: the "
-      "receive buffer is {} bytes, and reading directly needs the {} asked for and at least {} "
-      "(docs/networking.md#receivers)",
-      name_, has, asked, kDefaultRecvBufBytes);
+      "receive buffer on '{}' is {} bytes, and reading directly needs the {} asked for and at "
+      "least {} (docs/networking.md#receivers)",
+      name_, url, has, asked, kDefaultRecvBufBytes);
   direct_.reset();
 }
 
@@ -295,19 +307,13 @@ void Node::count_sequence(const lcm::ReceiveBuffer* rbuf) {
 }
 
 void Node::measure_recv_buf() {
-  const std::string url =
-      lcm_url_with_recv_buf(effective_lcm_url(opts_.lcm_url), opts_.lcm_recv_buf);
-  recv_buf_requested_ = lcm_url_recv_buf(url);
-  const uint16_t port = lcm_url_udpm_port(url);
+  const uint16_t port = lcm_url_udpm_port(effective_lcm_url(opts_.lcm_url));
   if (port == 0) return;  // not udpm: no socket of ours
-  const int fd = own_udp_socket_bound_to(port);
-  int granted = 0;
-  socklen_t len = sizeof granted;
-  if (fd < 0 || getsockopt(fd, SOL_SOCKET, SO_RCVBUF, &granted, &len) != 0) return;
+  // The direct receiver's socket is known; liblcm's is found by its port.
+  const int granted = granted_recv_buf(direct_ ? direct_->fd() : own_udp_socket_bound_to(port));
+  if (granted < 0) return;
   recv_buf_bytes_ = granted;
-  // Linux doubles what it grants (bookkeeping overhead) and caps the request at
-  // net.core.rmem_max: less than twice the request means it was capped.
-  if (recv_buf_requested_ > 0 && int64_t{granted} < 2 * int64_t{recv_buf_requested_}) {
+  if (recv_buf_requested_ > 0 && !granted_in_full(granted, recv_buf_requested_)) {
     spdlog::warn(
         "{}: the LCM receive buffer is {} bytes, not the {} asked for: net.core.rmem_max caps it, "
         "and messages will be lost under load. As root: sysctl -w net.core.rmem_max={} (and a "
