@@ -125,6 +125,10 @@ std::pair<double, double> rss_mb(int pid) {
   return {now, peak};
 }
 
+double max_of(const std::vector<double>& v) {
+  return v.empty() ? std::nan("") : *std::max_element(v.begin(), v.end());
+}
+
 double percentile(std::vector<double> v, double p) {
   if (v.empty()) return std::nan("");
   std::sort(v.begin(), v.end());
@@ -392,19 +396,14 @@ int main(int argc, char** argv) {
   std::printf("latency us: p50 %.0f p90 %.0f p99 %.0f p99.9 %.0f max %.0f\n",
               percentile(latency_us, 50), percentile(latency_us, 90), percentile(latency_us, 99),
               percentile(latency_us, 99.9),
-              latency_us.empty() ? std::nan("")
-                                 : *std::max_element(latency_us.begin(), latency_us.end()));
+              max_of(latency_us));
   std::printf("baseline, own ranges heard back, us: p50 %.0f p90 %.0f p99 %.0f max %.0f\n",
               percentile(own_us, 50), percentile(own_us, 90), percentile(own_us, 99),
-              own_us.empty() ? std::nan("") : *std::max_element(own_us.begin(), own_us.end()));
+              max_of(own_us));
   std::printf("added by ips-fuse (pose minus own range arrival), us: p50 %.0f p90 %.0f p99 %.0f "
               "max %.0f\n",
               percentile(added_us, 50), percentile(added_us, 90), percentile(added_us, 99),
-              added_us.empty() ? std::nan("")
-                               : *std::max_element(added_us.begin(), added_us.end()));
-  const auto max_of = [](const std::vector<double>& v) {
-    return v.empty() ? std::nan("") : *std::max_element(v.begin(), v.end());
-  };
+              max_of(added_us));
   std::printf("by the kernel's receive stamps (SO_TIMESTAMP), us: a range's delivery p50 %.0f p99 "
               "%.0f; this process's wake-up and read of it p50 %.0f p90 %.0f p99 %.0f; added by "
               "ips-fuse (its pose's stamp minus its range's: ips-fuse's wake-up, work and publish) "
@@ -454,7 +453,7 @@ int main(int argc, char** argv) {
                             {"p50", percentile(v, 50)},
                             {"p90", percentile(v, 90)},
                             {"p99", percentile(v, 99)},
-                            {"max", v.empty() ? std::nan("") : *std::max_element(v.begin(), v.end())}};
+                            {"max", max_of(v)}};
     };
     out["tags"] = o.tags;
     out["anchors"] = o.anchors;
