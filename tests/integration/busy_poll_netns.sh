@@ -5,8 +5,9 @@
 #     --lcm-receiver direct (liblcm's receive thread would sleep for every message anyway).
 #  2. Two ips-fuse fuse the simulated lab (ips-sim live, the real lcm-logger recording): one with
 #     --busy-poll-us 10000000 (it polls the bus without sleeping while messages come), one
-#     without (its POSE_FUSED renamed POSE_FUSED_IDLE). Both publish poses. Over the same two
-#     seconds of wall time the polling one takes at least 0.25 s of CPU and 3 times the other's
+#     without (its POSE_FUSED renamed POSE_FUSED_IDLE). Both publish poses. Over the same window
+#     (until the sleeping one has fused 2 s more of the simulation, about 2 s of wall time) the
+#     polling one takes at least 0.25 s of CPU and 3 times the other's
 #     (which sleeps between messages): the option does what it says. Both stop on SIGINT with
 #     status 0 (the polling loop still sees the signal).
 #  3. ips-fuse's default receiver, auto: the sleeping one above (root, so granted the 4 MiB
@@ -59,7 +60,20 @@ cpu_s() {  # utime + stime of a process, seconds (fields 14 and 15 of /proc/PID/
   awk -v hz="$(getconf CLK_TCK)" '{ sub(/^.*\) /, ""); print ($12 + $13) / hz }' "/proc/$1/stat"
 }
 b0=$(cpu_s $busy) i0=$(cpu_s $idle) t0=$(date +%s%N)
-sleep 2  # the window measured (not a wait for a state: any length gives the same shares)
+# The window: until the sleeping one has fused 2 s more of the simulation (its poses' utime).
+python3 - "$WORK/run.lcm" <<'PY' || fail "no 2 s of poses on POSE_FUSED_IDLE within 60 s"
+import struct, sys, time
+from lcm_log import events
+def newest():
+    ts = [struct.unpack_from('>q', d, 8)[0] for ch, _, d in events(sys.argv[1])[0]
+          if ch == 'POSE_FUSED_IDLE']
+    return max(ts) if ts else 0
+start, deadline = newest(), time.time() + 60
+while newest() < start + 2_000_000:
+    if time.time() > deadline:
+        sys.exit(1)
+    time.sleep(0.1)
+PY
 b1=$(cpu_s $busy) i1=$(cpu_s $idle) t1=$(date +%s%N)
 python3 - "$b0" "$b1" "$i0" "$i1" "$t0" "$t1" <<'PY' || fail "--busy-poll-us did not poll"
 import sys
