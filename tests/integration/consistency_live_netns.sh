@@ -6,7 +6,7 @@
 #  1. Within 10 s of ranges ips-uwb-twr's HEALTH names the setting per anchor in its
 #     `consistency` field ("range_sigma_m 0.01 looks too small"): seen through ips-view's
 #     /api/state (the console's consistency column) and through the recorded log (ips-export
-#     health: the field went over the bus).
+#     health: the field went over the bus), all four anchors by name in one report.
 #  2. With learn_noise: false the filter cannot make up for it: the process reports itself
 #     degraded, its last_error naming the setting (a lasting error).
 # Every wait is for a condition, bounded by 60 s. Exit 77 (skipped) when no network namespace
@@ -67,10 +67,38 @@ wait_row "'range_sigma_m 0.01 looks too small' in p['consistency']" "names the s
 echo "named after $((SECONDS - start)) s of the tracker's run (bound: 10 s of ranges + start-up)"
 wait_row "p['state'] == 'ok' and 'range_sigma_m 0.01 looks too small' in p['consistency']" \
   "learning: the filter widened, ok, the setting still named"
+# Per anchor: a recorded HEALTH names the setting for all four (ips-view's column is cut at its
+# byte bound, so the log is read). Each channel is judged on its own window: in the tracker's
+# first seconds the filter's own uncertainty can still explain one anchor's innovations, so the
+# four need not come in the same report as the first one named.
+python3 - "$WORK/live.lcm" <<'EOF' || fail "no recorded HEALTH of ips-uwb-twr named the setting for all four anchors within 60 s"
+import sys, time
+import lcm_log, lcm_messages
+
+def names_all(c):
+    for a in ('A1', 'A2', 'A3', 'A4'):
+        i = c.find(f'RANGE {a}:')
+        j = c.find('RANGE ', i + 1)
+        if i < 0 or 'range_sigma_m 0.01 looks too small' not in c[i:j if j > 0 else len(c)]:
+            return False
+    return True
+
+deadline, start = time.monotonic() + 60, time.monotonic()
+while time.monotonic() < deadline:
+    rows = [h for c, _, d in lcm_log.events(sys.argv[1])[0] if c == 'HEALTH'
+            for h in [lcm_messages.health(d)] if h['source'] == 'ips-uwb-twr']
+    hits = [k for k, h in enumerate(rows) if names_all(h['consistency'] or '')]
+    if hits:
+        print(f'the log: report {hits[0] + 1} of ips-uwb-twr names the setting for A1..A4 '
+              f'({time.monotonic() - start:.1f} s of polling)')
+        sys.exit(0)
+    time.sleep(0.2)
+sys.exit(1)
+EOF
 stop $twr ips-uwb-twr
 logger_sync "$WORK/live.lcm"
 stop $logger lcm-logger
-# The field went over the bus: the recorded HEALTH messages carry it.
+# The field went over the bus: the recorded HEALTH messages carry it (read by ips-export).
 "$BIN/ips-export" "$WORK/live.lcm" --channels HEALTH --format csv --out "$WORK/export" \
   2>"$WORK/export.err" || fail "ips-export: $(cat "$WORK/export.err")"
 python3 - "$WORK/export/HEALTH.csv" <<'EOF' || fail "no recorded HEALTH of ips-uwb-twr names the setting"
@@ -78,9 +106,9 @@ import csv, sys
 rows = [r for r in csv.DictReader(open(sys.argv[1])) if r.get('source') == 'ips-uwb-twr']
 named = [r for r in rows if 'range_sigma_m 0.01 looks too small' in r.get('consistency', '')]
 print(f'recorded HEALTH of ips-uwb-twr: {len(rows)}, naming the setting: {len(named)}')
-anchors = {a for a in ('A1', 'A2', 'A3', 'A4') if named and f'RANGE {a}:' in named[-1]['consistency']}
-print(f'anchors named in the last: {sorted(anchors)}')
-sys.exit(0 if named and len(anchors) == 4 else 1)
+every = [r for r in named if all(f'RANGE {a}:' in r['consistency'] for a in ('A1', 'A2', 'A3', 'A4'))]
+print(f'of them naming all four anchors: {len(every)}')
+sys.exit(0 if every else 1)
 EOF
 
 # --- 2: learning off: the filter keeps the wrong sigma, the process is degraded ------------
