@@ -24,20 +24,22 @@ void FuseEstimator::on_aoa_epoch(const aoa::AoaEpochAngles& e) {
   m.kind = Measurement::Kind::kAngles;
   m.t = e.utime;
   m.source = kSrcAngles;
-  Angles& a = m.group.emplace<Angles>();
+  auto angles = std::make_shared<Angles>();
+  Angles& a = *angles;
   for (size_t i = 0; i < e.picked->size() && a.count < kMaxAngles; ++i) {
     a.anchor[a.count] = static_cast<int>((*e.picked)[i].anchor);
     a.angle[a.count] = (*e.angles)[i];
     a.angle[a.count].frame = nullptr;
     ++a.count;
   }
+  m.group = std::shared_ptr<const Angles>(std::move(angles));
   t->tight_aoa = true;
   add(*e.tag_id, *t, std::move(m));
 }
 
 void FuseEstimator::apply_angles(Track& t, Snapshot& s, const Measurement& m, bool live) {
   FuseFilter& f = s.filter;
-  const Angles& a = std::get<Angles>(m.group);
+  const Angles& a = *std::get<std::shared_ptr<const Angles>>(m.group);
   bool any = false;
   for (int i = 0; i < a.count; ++i) {
     const aoa::AnchorFrame& frame = frames_[static_cast<size_t>(a.anchor[i])];

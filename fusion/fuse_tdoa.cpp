@@ -39,8 +39,8 @@ void FuseEstimator::on_pair(const uwb_tdoa_t& m) {
       meas.kind = Measurement::Kind::kTdoa;
       meas.t = m.utime;
       meas.source = kSrcTdoa;
-      meas.group.emplace<TdoaArrivals>(pair_arrivals(a->position, b->position, m.diff_m,
-                                                     sigma * sigma));
+      meas.group = std::make_shared<const TdoaArrivals>(
+          pair_arrivals(a->position, b->position, m.diff_m, sigma * sigma));
       t->tight_tdoa = true;
       add(m.tag_id, *t, std::move(meas));
     }
@@ -66,20 +66,22 @@ void FuseEstimator::on_tdoa_epoch(const uwb_tdoa::TdoaEpoch& e) {
   m.kind = Measurement::Kind::kTdoa;
   m.t = e.utime;
   m.source = kSrcTdoa;
-  TdoaArrivals& a = m.group.emplace<TdoaArrivals>();
+  auto arrivals = std::make_shared<TdoaArrivals>();
+  TdoaArrivals& a = *arrivals;
   a.count = std::min(e.count, kMaxTdoaArrivals);
   for (int k = 0; k < a.count; ++k) {
     a.anchor[k] = e.anchor[order[k]];
     a.range_m[k] = e.range_m[order[k]];
     a.var_m2[k] = e.var_m2[order[k]];
   }
+  m.group = std::shared_ptr<const TdoaArrivals>(std::move(arrivals));
   t->tight_tdoa = true;
   add(*e.tag_id, *t, std::move(m));
 }
 
 void FuseEstimator::apply_tdoa(Track& t, Snapshot& s, const Measurement& m, bool live) {
   FuseFilter& f = s.filter;
-  const TdoaUpdate u = update_tdoa(f, std::get<TdoaArrivals>(m.group),
+  const TdoaUpdate u = update_tdoa(f, *std::get<std::shared_ptr<const TdoaArrivals>>(m.group),
                                    params_.tdoa_gate_sigma * params_.tdoa_gate_sigma);
   count_absolute(s, m.t, u.accepted, live);
   if (live) {
