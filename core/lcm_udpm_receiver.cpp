@@ -60,14 +60,14 @@ LcmUdpmReceiver::LcmUdpmReceiver(const std::string& url) {
     fail("joining " + group + " (no multicast route? as root: ip link set lo multicast on && ip "
          "route add 224.0.0.0/4 dev lo)");
 
-  buffers_.resize(kBatch * kDatagramBytes);
+  buffers_ = std::make_unique_for_overwrite<uint8_t[]>(kBatch * kDatagramBytes);
   headers_.resize(kBatch);
   iovecs_.resize(kBatch);
   senders_.resize(kBatch);
   controls_.resize(kBatch * kControlBytes);
   // Where each datagram goes is set once; read_batch resets only what recvmmsg writes back.
   for (size_t k = 0; k < kBatch; ++k) {
-    iovecs_[k] = {buffers_.data() + k * kDatagramBytes, kDatagramBytes};
+    iovecs_[k] = {buffers_.get() + k * kDatagramBytes, kDatagramBytes};
     msghdr& h = headers_[k].msg_hdr;
     h = {};
     h.msg_name = &senders_[k];
@@ -112,7 +112,7 @@ int LcmUdpmReceiver::read_batch(const MessageFn& on_message, const RejectFn& on_
         uint64_t{ntohl(senders_[k].sin_addr.s_addr)} << 16 | ntohs(senders_[k].sin_port);
     LcmReassembler::Message msg;
     std::string why;
-    if (wire_.feed(buffers_.data() + k * kDatagramBytes, size, sender, msg, &why)) {
+    if (wire_.feed(buffers_.get() + k * kDatagramBytes, size, sender, msg, &why)) {
       on_message(msg, utime);
     } else if (!why.empty() && on_reject) {
       on_reject(why);

@@ -10,6 +10,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -44,7 +45,9 @@ class LcmUdpmReceiver {
  private:
   int fd_ = -1;
   LcmReassembler wire_;
-  std::vector<uint8_t> buffers_;  // kBatch datagrams of the largest UDP payload
+  // kBatch datagrams of the largest UDP payload (1 MiB), left uninitialised: a page is resident
+  // only once a datagram has been written to it (most are a few hundred bytes).
+  std::unique_ptr<uint8_t[]> buffers_;
   std::vector<mmsghdr> headers_;
   std::vector<iovec> iovecs_;
   std::vector<sockaddr_in> senders_;
