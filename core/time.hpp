@@ -1,5 +1,7 @@
 #pragma once
 // Microsecond timestamps (utime) as carried by every message.
+#include <time.h>
+
 #include <chrono>
 #include <cmath>
 #include <cstdint>
@@ -30,6 +32,13 @@ inline utime_t wall_utime_now() {
   return std::chrono::duration_cast<std::chrono::microseconds>(
              std::chrono::system_clock::now().time_since_epoch())
       .count();
+}
+
+// The CPU time the calling thread has used, in seconds (for where a run's time went).
+inline double thread_cpu_s() {
+  timespec t{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+  return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
 }
 
 // The host's monotonic clock in us (from an arbitrary origin): for how long something took or

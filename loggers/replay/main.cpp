@@ -14,6 +14,7 @@
 #include <sstream>
 #include <spdlog/spdlog.h>
 #include <thread>
+#include <utility>
 
 #include "core/channels.hpp"
 #include "core/cli.hpp"
@@ -22,6 +23,7 @@
 #include "core/log_writer.hpp"
 #include "core/text_escape.hpp"
 #include "loggers/replay/replay_host.hpp"
+#include "loggers/replay/replayer.hpp"
 #include "loggers/replay/sweep.hpp"
 
 int main(int argc, char** argv) {
@@ -60,9 +62,18 @@ int main(int argc, char** argv) {
   int jobs = 0;
   app.add_option("--jobs", jobs,
                  "threads. A replay: 1 runs everything on one; 2 runs ips-fuse, ips-zones and the "
-                 "output on a second (the same bytes out; more gain nothing yet). A sweep: "
+                 "output on a second; with --lanes, the lanes run on this many threads beside the "
+                 "reading and writing one (the same bytes out for any number). A sweep: "
                  "configurations replayed side by side. Default: the cores (" +
-                     std::to_string(cores) + " here; at most 2 for a replay)")
+                     std::to_string(cores) + " here; at most 2 for a replay without --lanes)")
+      ->check(CLI::Range(1, 1024));
+  int lanes = 0;
+  app.add_option("--lanes", lanes,
+                 "split the tags into L lanes (by their shard among L, as --shard), each with its "
+                 "own instance of every estimator but ips-zones, as L shards of a live site: "
+                 "--jobs threads run them side by side. The output depends on L, not on --jobs; "
+                 "what an estimator learns across tags (each anchor's noise) each lane learns "
+                 "from its own tags")
       ->check(CLI::Range(1, 1024));
   std::vector<std::string> sets;
   app.add_option("--set", sets,
@@ -113,7 +124,8 @@ int main(int argc, char** argv) {
     ro.zones_pose_channel = zones_pose_channel;
     ro.tags = opts.tags;
     ro.shard = opts.shard;
-    ro.threads = jobs > 0 ? jobs : std::min(cores, 2);
+    ro.lanes = lanes;
+    ro.threads = jobs > 0 ? jobs : lanes > 0 ? cores : std::min(cores, 2);
     std::stringstream names(only);
     for (std::string n; std::getline(names, n, ',');)
       if (!n.empty()) ro.only.insert(n);
@@ -160,15 +172,16 @@ int main(int argc, char** argv) {
       return 2;
     }
     std::atomic<bool> write_failed{false};
-    ips::replay::ReplayHost host(ro, opts, [&](const std::string& channel, int64_t timestamp,
+    ips::replay::Replayer host(ro, opts, [&](const std::string& channel, int64_t timestamp,
                                                const uint8_t* data, size_t size) {
       if (!out.add(channel, timestamp, data, size)) write_failed = true;
     });
 
     const auto t0 = std::chrono::steady_clock::now();
     int64_t first_ts = 0, last_ts = 0;
+    bool first = true;
     while (const ips::LogEvent* e = in->next()) {
-      if (host.stats().events_in == 0) first_ts = e->timestamp_us;
+      if (std::exchange(first, false)) first_ts = e->timestamp_us;
       last_ts = e->timestamp_us;
       host.process(e->channel, e->timestamp_us, e->data, e->size, true);
       if (write_failed) break;
@@ -187,10 +200,25 @@ int main(int argc, char** argv) {
     for (const auto& n : host.hosted()) hosted += (hosted.empty() ? "" : ", ") + n;
     spdlog::info("ips-replay: {} events in ({} passed through, {} regenerated channel events "
                  "dropped), {} estimates out [{}]; {} undecodable, {} bad sites; {:.2f} s "
-                 "({:.0f} events/s, {:.0f}x real time; {} thread{})",
+                 "({:.0f} events/s, {:.0f}x real time; {} thread{}{})",
                  s.events_in, s.passed_through, s.dropped_regenerated, s.estimates_out, hosted,
                  s.undecodable, s.bad_sites, secs, static_cast<double>(s.events_in) / secs,
-                 secs > 0 ? span / secs : 0.0, ro.threads >= 2 ? 2 : 1, ro.threads >= 2 ? "s" : "");
+                 secs > 0 ? span / secs : 0.0, host.threads(), host.threads() > 1 ? "s" : "",
+                 host.lanes() > 0 ? ", " + std::to_string(host.lanes()) + " lanes" : "");
+    if (host.lanes() > 0) {
+      // Where the time went, for what more cores would give (scripts/bench-replay).
+      const auto cpu = host.cpu_times();
+      const auto [least, most] = std::minmax_element(cpu.lanes_s.begin(), cpu.lanes_s.end());
+      double sum = 0.0;
+      for (double t : cpu.lanes_s) sum += t;
+      spdlog::info("ips-replay: CPU: lanes {:.2f} to {:.2f} s each, {:.2f} s in all; reading and "
+                   "dispatching {:.2f} s; ips-zones and writing {:.2f} s",
+                   *least, *most, sum, cpu.caller_s, cpu.writer_s);
+    }
+    if (host.repeated_estimates() > 0)
+      spdlog::info("ips-replay: {} estimates made the same by several lanes (an anchor's CLOCK) "
+                   "written once",
+                   host.repeated_estimates());
     if (!host.tag_selector().selects_all())
       spdlog::info("ips-replay: {}: {} messages of other tags not estimated (passed through)",
                    host.tag_selector().describe(), s.skipped_other_tags);

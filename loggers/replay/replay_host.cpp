@@ -53,7 +53,9 @@ ReplayHost::ReplayHost(const ReplayOptions& opts, const CommonOptions& channels,
   if (!selector) throw ConfigError(tags_error);
   tags_ = *selector;
   stage_tags_ = std::move(*selector);
-  auto wanted = [&](const char* name) { return opts_.only.empty() || opts_.only.count(name); };
+  auto wanted = [&](const char* name) {
+    return (opts_.only.empty() || opts_.only.count(name)) && !opts_.except.count(name);
+  };
   if (wanted(kUwbTwr)) {
     const std::string out = channels_.channel(channel::kPoseUwb);
     twr_ = std::make_unique<uwb_twr::TwrEstimator>([this, out](const pose_t& p) {
@@ -150,6 +152,7 @@ ReplayHost::ReplayHost(const ReplayOptions& opts, const CommonOptions& channels,
     produced_channels_.insert(events);
     produced_channels_.insert(alerts);
   }
+  produced_channels_.insert(opts_.produced_elsewhere.begin(), opts_.produced_elsewhere.end());
   for (const char* kind : {channel::kInsModule, channel::kPoseIns, channel::kPoseTdoa,
                            channel::kPoseAoa, channel::kStep, channel::kAltitude})
     fuse_log_channels_.insert(channels_.channel(kind));
@@ -521,7 +524,8 @@ void ReplayHost::feed_zones_from_log(const std::string& channel, const uint8_t* 
   }
 }
 
-void ReplayHost::finish() {
+void ReplayHost::finish(std::optional<int64_t> end_timestamp) {
+  if (end_timestamp) now_timestamp_ = *end_timestamp;
   if (tdoa_) tdoa_->flush();
   if (aoa_) aoa_->finish();
   if (altitude_) altitude_->finish();
@@ -554,7 +558,7 @@ void ReplayHost::process(const std::string& channel, int64_t timestamp, const ui
     ++stats_.dropped_regenerated;
   } else {
     ++stats_.passed_through;
-    post(Op::kWrite, c.id, data, size, stable);
+    if (opts_.pass_through) post(Op::kWrite, c.id, data, size, stable);
   }
   if (c.to_zones) post(Op::kZonesFromLog, c.id, data, size, stable);
   // Decodes the event as Msg: false, counted, when it is not one.
@@ -645,6 +649,35 @@ void ReplayHost::process(const std::string& channel, int64_t timestamp, const ui
   }
 }
 
+void ReplayHost::estimate(const std::string& channel, int64_t timestamp, const uint8_t* data,
+                          size_t size) {
+  if (worker_failed_) rethrow_worker_error();
+  now_timestamp_ = timestamp;
+  Op op = Op::kEstimate;
+  if (channel == opts_.zones_pose_channel) {
+    op = Op::kEmitPose;
+  } else if (channel == channels_.channel(channel::kAltitude)) {
+    op = Op::kEmitAltitude;
+  }
+  post(op, channel, data, size, false);
+}
+
+void describe_account(EstimatorAccount& a, bool only_given, bool site_applied) {
+  a.silent = a.messages_in > 0 && a.estimates_out == 0;
+  a.warn = a.silent && (a.drops.faults() > 0 || only_given);
+  a.line = a.name + ": " + std::to_string(a.messages_in) + " " + a.inputs + " in, " +
+           std::to_string(a.estimates_out) + " estimates out";
+  if (a.silent) {
+    // The dominant reasons say why; without any, the input was taken and gave nothing yet.
+    a.line += ": ";
+    a.line += a.drops.total() > 0 ? a.drops.summary(3) : "none dropped, none gave an estimate yet";
+  } else if (a.drops.total() > 0) {
+    a.line += "; " + a.drops.text();
+  }
+  if (a.drops.count(DropReason::kNoSite) > 0 && !site_applied)
+    a.line += " (the log has no SITE: give --site FILE)";
+}
+
 std::vector<EstimatorAccount> ReplayHost::accounts() const {
   const auto ch = [this](const char* kind) { return channels_.channel(kind); };
   std::vector<EstimatorAccount> out;
@@ -662,19 +695,7 @@ std::vector<EstimatorAccount> ReplayHost::accounts() const {
     a.messages_in = counts_[index].in;
     a.estimates_out = counts_[index].out;
     a.drops = drops;
-    a.silent = a.messages_in > 0 && a.estimates_out == 0;
-    a.warn = a.silent && (drops.faults() > 0 || !opts_.only.empty());
-    a.line = a.name + ": " + std::to_string(a.messages_in) + " " + a.inputs + " in, " +
-             std::to_string(a.estimates_out) + " estimates out";
-    if (a.silent) {
-      // The dominant reasons say why; without any, the input was taken and gave nothing yet.
-      a.line += ": ";
-      a.line += drops.total() > 0 ? drops.summary(3) : "none dropped, none gave an estimate yet";
-    } else if (drops.total() > 0) {
-      a.line += "; " + drops.text();
-    }
-    if (drops.count(DropReason::kNoSite) > 0 && !site_applied_)
-      a.line += " (the log has no SITE: give --site FILE)";
+    describe_account(a, !opts_.only.empty(), site_applied_);
     out.push_back(std::move(a));
   };
   if (twr_) account(kTwrIndex, kUwbTwr, ch(channel::kUwbRange), *twr_);
@@ -694,11 +715,14 @@ std::vector<EstimatorAccount> ReplayHost::accounts() const {
 }
 
 std::string ReplayHost::nothing_estimated() const {
+  // ips-zones consumes estimates and is not one: its events count only when it is alone.
+  return replay::nothing_estimated(accounts(), zones_ && hosted().size() == 1);
+}
+
+std::string nothing_estimated(const std::vector<EstimatorAccount>& accounts, bool zones_alone) {
   int64_t in = 0, out = 0;
   std::string inputs, why, fuse_why;
-  // ips-zones consumes estimates and is not one: its events count only when it is alone.
-  const bool zones_alone = zones_ && hosted().size() == 1;
-  for (const auto& a : accounts()) {
+  for (const auto& a : accounts) {
     if (a.name == kZones && !zones_alone) continue;
     in += a.messages_in;
     out += a.estimates_out;

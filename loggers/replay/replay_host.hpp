@@ -18,6 +18,7 @@
 #include <functional>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <set>
 #include <string>
 #include <thread>
@@ -55,6 +56,17 @@ struct ReplayOptions {
   // to the output and counted in ReplayStats::skipped_other_tags. Empty: every tag.
   std::string tags;
   std::string shard;
+  // --lanes L (loggers/replay/replayer.hpp): the tags split into L lanes by their shard among L
+  // (core/tag_selector.hpp), each lane with its own instance of every estimator but ips-zones, as
+  // L shards of a live site have; `threads` run the lanes side by side. The output depends on L,
+  // never on the threads. 0: no lanes, one instance of each estimator.
+  int lanes = 0;
+  // For the hosts of a replay in lanes: a lane writes only its estimates (no inputs); `except`
+  // names estimators not hosted (after `only`); `produced_elsewhere` names channels that other
+  // hosts (the lanes) regenerate, whose log events this host drops as its own.
+  bool pass_through = true;
+  std::set<std::string> except;
+  std::set<std::string> produced_elsewhere;
 };
 
 struct ReplayStats {
@@ -96,6 +108,12 @@ struct EstimatorAccount {
   std::string notes;
 };
 
+// An account's `line`, `silent` and `warn` from its name, inputs, counts and drops (`only_given`:
+// the estimators were named with --only; `site_applied`: the replay had a site).
+void describe_account(EstimatorAccount& a, bool only_given, bool site_applied);
+// ReplayHost::nothing_estimated() of these accounts (`zones_alone`: ips-zones is the only one).
+std::string nothing_estimated(const std::vector<EstimatorAccount>& accounts, bool zones_alone);
+
 class ReplayHost {
  public:
   using Sink = std::function<void(const std::string& channel, int64_t timestamp,
@@ -113,11 +131,15 @@ class ReplayHost {
   // thrown here (or by finish()).
   void process(const std::string& channel, int64_t timestamp, const uint8_t* data, size_t size,
                bool stable = false);
+  // An estimate made by another host (a lane) for the input of `timestamp`: written as this
+  // host's own, and heard by its ips-zones as it would hear its own estimators'.
+  void estimate(const std::string& channel, int64_t timestamp, const uint8_t* data, size_t size);
   // At the end of the log: estimators that hold inputs back (the TDoA estimator waits for a
   // blink's last report, the AoA estimator for an epoch's window to pass, the altitude estimator
   // for the reference's next reading) emit what they hold, stamped with the last event's time;
-  // the fusion gets it as it would live. Returns when the sink has had everything.
-  void finish();
+  // the fusion gets it as it would live. Returns when the sink has had everything. A lane, which
+  // sees only its own events, is given the log's last time as `end_timestamp`.
+  void finish(std::optional<int64_t> end_timestamp = std::nullopt);
 
   const ReplayStats& stats() const { return stats_; }
   // Per hosted estimator, in the order of available().
@@ -125,6 +147,8 @@ class ReplayHost {
   // Why the replay estimated nothing, in one line: the log holds input for no hosted estimator,
   // or none of them gave an estimate. "" when one did.
   std::string nothing_estimated() const;
+  // The channels the hosted estimators regenerate.
+  const std::set<std::string>& produced_channels() const { return produced_channels_; }
   // The tags the hosted estimators take (--tags, --shard).
   const TagSelector& tag_selector() const { return tags_; }
   // A site came from --site or a SITE message of the log.

@@ -19,6 +19,7 @@
 #include "core/node.hpp"
 #include "core/site_edit.hpp"
 #include "loggers/eval/evaluation.hpp"
+#include "loggers/replay/replayer.hpp"
 
 namespace ips::replay {
 
@@ -75,7 +76,7 @@ SweepScore score(const SweepOptions& o, const std::string& path, std::shared_ptr
   eval::Evaluator ev;
   const std::string truth = o.channels.channel(channel::kTruth);
   pose_t m;
-  ReplayHost host(ro, o.channels, [&](const std::string& ch, int64_t ts, const uint8_t* d,
+  Replayer host(ro, o.channels, [&](const std::string& ch, int64_t ts, const uint8_t* d,
                                        size_t n) {
     if (out && !out->add(ch, ts, d, n)) write_failed = true;
     if (ch != truth && ch != o.channel) return;

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# ips-replay --jobs, --set and --out-dir (issue 25): a 4-tag lab log replayed on one thread and on two gives
-# the same bytes, mapped or read through a pipe-like copy; a sweep over a site setting gives one
+# ips-replay --jobs, --lanes, --set and --out-dir (issue 25): a 4-tag lab log replayed on one thread and on
+# two gives the same bytes; with --lanes 3 on one lane thread and on three, the same bytes too,
+# --lanes 1 the bytes of no lanes, and every tag fused; a sweep over a site setting gives one
 # row per value, sorted, each row's score the one ips-eval gives the replay of that
 # configuration; bad --set values are refused, and a configuration the estimators refuse is a
 # failed row, not a crash.
@@ -22,6 +23,26 @@ grep -q '; 1 thread)' "$WORK/j1.err" && grep -q '; 2 threads)' "$WORK/j2.err" &&
 cmp -s "$WORK/j1.lcm" "$WORK/j2.lcm" && echo "ok: --jobs 2 wrote the same bytes as --jobs 1" ||
   fail "--jobs 2 and --jobs 1 differ"
 [ "$(stat -c %s "$WORK/j1.lcm")" -gt 1000000 ] || fail "the replay wrote little: $(stat -c %s "$WORK/j1.lcm") bytes"
+
+# --lanes: the output depends on the lanes, not on the threads.
+for run in "3 1" "3 3" "1 2"; do
+  set -- $run
+  "$BIN/ips-replay" "$WORK/in.lcm" --out "$WORK/l$1-j$2.lcm" --lanes "$1" --jobs "$2" 2>"$WORK/l$1-j$2.err" ||
+    fail "--lanes $1 --jobs $2: $(cat "$WORK/l$1-j$2.err")"
+done
+set --
+grep -q "; 5 threads, 3 lanes)" "$WORK/l3-j3.err" && grep -q "CPU: lanes [0-9.]* to [0-9.]* s each" "$WORK/l3-j3.err" &&
+  echo "ok: --lanes 3 --jobs 3 says its threads, lanes and CPU" || fail "lanes not said: $(grep -E 'events in|CPU' "$WORK/l3-j3.err")"
+cmp -s "$WORK/l3-j1.lcm" "$WORK/l3-j3.lcm" && echo "ok: --lanes 3: --jobs 3 wrote the same bytes as --jobs 1" ||
+  fail "--lanes 3: --jobs 3 and --jobs 1 differ"
+cmp -s "$WORK/l1-j2.lcm" "$WORK/j1.lcm" && echo "ok: --lanes 1 wrote the bytes of the replay without lanes" ||
+  fail "--lanes 1 and no lanes differ"
+fused=$("$BIN/ips-eval" --json "$WORK/l3-j1.lcm" | python3 -c '
+import json, sys
+print(sorted(r["tag"] for r in json.load(sys.stdin)["rows"] if r["channel"] == "POSE_FUSED" and r["count"] > 200))')
+[ "$fused" = "['T1', 'T1-2', 'T1-3', 'T1-4']" ] && echo "ok: --lanes 3 fused every tag: $fused" || fail "--lanes 3 fused $fused"
+"$BIN/ips-replay" "$WORK/in.lcm" --out x.lcm --lanes 0 2>"$WORK/e0" >/dev/null
+[ $? = 2 ] && grep -q "lanes" "$WORK/e0" && echo "ok: --lanes 0 refused" || fail "--lanes 0: $(cat "$WORK/e0")"
 
 # A sweep: three values of ips-fuse's range noise on the lab's site file.
 cp "$ROOT/config/sites/lab.yaml" "$ROOT/config/sites/lab-plan.svg" "$WORK/"

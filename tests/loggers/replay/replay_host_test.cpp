@@ -1,6 +1,7 @@
 // The replay host: inputs pass through, estimates follow the input that caused them, regenerated
 // channels are dropped unless kept, and the same events give the same bytes.
 #include "loggers/replay/replay_host.hpp"
+#include "loggers/replay/replayer.hpp"
 
 #include <gtest/gtest.h>
 
@@ -39,14 +40,14 @@ struct Out {
 std::vector<Out> replay(const ReplayOptions& ro, double duration_s = 20,
                         const std::vector<Out>& extra_inputs = {},
                         const std::string& scenario = "lab",
-                        const std::function<void(const ReplayHost&)>& inspect = {},
+                        const std::function<void(const Replayer&)>& inspect = {},
                         int walkers = 1) {
   sim::Scenario sc = sim::load_scenario(scenario);
   sc.duration_s = duration_s;
   sim::replicate_walkers(sc, walkers);
   sim::Simulator sim(sc, 1, 1767225600000000);
   std::vector<Out> out;
-  ReplayHost host(ro, CommonOptions{}, [&](const std::string& ch, int64_t ts, const uint8_t* d,
+  Replayer host(ro, CommonOptions{}, [&](const std::string& ch, int64_t ts, const uint8_t* d,
                                           size_t n) { out.push_back({ch, ts, {d, d + n}}); });
   auto extra = extra_inputs.begin();
   auto process_extra_until = [&](int64_t t) {
@@ -91,9 +92,9 @@ TEST(ReplayHost, TwoThreadsGiveTheSameOutputAsOne) {
     two.threads = 2;
     int64_t estimates_one = 0, estimates_two = 0;
     const auto a = replay(one, 30, {}, "lab",
-                          [&](const ReplayHost& h) { estimates_one = h.stats().estimates_out; });
+                          [&](const Replayer& h) { estimates_one = h.stats().estimates_out; });
     const auto b = replay(two, 30, {}, "lab",
-                          [&](const ReplayHost& h) { estimates_two = h.stats().estimates_out; });
+                          [&](const Replayer& h) { estimates_two = h.stats().estimates_out; });
     ASSERT_GT(estimates_one, 300) << only.size();
     EXPECT_EQ(estimates_one, estimates_two) << only.size();
     ASSERT_EQ(a.size(), b.size()) << only.size();
@@ -101,8 +102,6 @@ TEST(ReplayHost, TwoThreadsGiveTheSameOutputAsOne) {
   }
 }
 
-// A failure in the second stage (here the sink's) reaches the caller, from process() or finish(),
-// and the host still closes cleanly.
 // --shard K/N (and --tags): the hosted estimators take only their tags' messages, as live
 // shards do; every input is still passed through. Three shards of a 6-tag lab estimate disjoint
 // sets of tags whose union is every tag, each tag with as many fused and UWB poses as in the
@@ -119,7 +118,7 @@ TEST(ReplayHost, ShardsSplitTheTagsAndTogetherEstimateEveryOne) {
     return n;
   };
   int64_t inputs_whole = 0;
-  const auto whole = poses_by_tag(replay({}, 20, {}, "lab", [&](const ReplayHost& h) {
+  const auto whole = poses_by_tag(replay({}, 20, {}, "lab", [&](const Replayer& h) {
     inputs_whole = h.stats().passed_through;
   }, 6));
   ASSERT_EQ(whole.at("POSE_FUSED").size(), 6u);
@@ -129,7 +128,7 @@ TEST(ReplayHost, ShardsSplitTheTagsAndTogetherEstimateEveryOne) {
     ReplayOptions ro;
     ro.shard = std::to_string(k) + "/3";
     int64_t passed = 0;
-    const auto part = poses_by_tag(replay(ro, 20, {}, "lab", [&](const ReplayHost& h) {
+    const auto part = poses_by_tag(replay(ro, 20, {}, "lab", [&](const Replayer& h) {
       passed = h.stats().passed_through;
       skipped += h.stats().skipped_other_tags;
     }, 6));
@@ -161,26 +160,166 @@ TEST(ReplayHost, ShardsSplitTheTagsAndTogetherEstimateEveryOne) {
   EXPECT_THROW(replay(ro, 1), ConfigError);
 }
 
-TEST(ReplayHost, AnErrorOnTheSecondThreadIsThrownToTheCaller) {
-  sim::Scenario sc = sim::load_scenario("lab");
-  sc.duration_s = 20;
-  sim::Simulator sim(sc, 1, 1767225600000000);
-  ReplayOptions ro;
-  ro.threads = 2;
-  int calls = 0;
-  ReplayHost host(ro, CommonOptions{}, [&](const std::string&, int64_t, const uint8_t*, size_t) {
-    if (++calls == 1000) throw std::runtime_error("disk on fire");
-  });
-  std::string what;
-  try {
-    sim::SimEvent e;
-    while (sim.next(e)) host.process(e.kind, e.utime, e.data.data(), e.data.size());
-    host.finish();
-  } catch (const std::runtime_error& e) {
-    what = e.what();
+// Replayer with --lanes L (loggers/replay/replayer.hpp). The events' bytes are not stable here
+// (the simulator reuses its buffer), so the replayer copies them.
+namespace {
+// The estimates on POSE_* channels, per channel and tag, in order.
+std::map<std::pair<std::string, std::string>, std::vector<Out>> poses_by_tag(
+    const std::vector<Out>& out) {
+  std::map<std::pair<std::string, std::string>, std::vector<Out>> n;
+  for (const auto& o : out) {
+    if (o.channel.rfind("POSE_", 0) != 0) continue;
+    pose_t p;
+    EXPECT_GT(p.decode(o.data.data(), 0, static_cast<int>(o.data.size())), 0);
+    n[{o.channel, p.tag_id}].push_back(o);
   }
-  EXPECT_EQ(what, "disk on fire");
-  EXPECT_EQ(calls, 1000);  // nothing run after the failure
+  return n;
+}
+std::map<std::string, int> events_by_channel(const std::vector<Out>& out) {
+  std::map<std::string, int> n;
+  for (const auto& o : out) ++n[o.channel];
+  return n;
+}
+}  // namespace
+
+// The output depends on the lanes, never on the threads that run them.
+TEST(Replayer, LanesGiveTheSameBytesOnAnyNumberOfThreads) {
+  ReplayOptions ro;
+  ro.lanes = 4;
+  int64_t estimates = 0;
+  const auto one = replay(ro, 12, {}, "lab", [&](const Replayer& h) {
+    estimates = h.stats().estimates_out;
+    EXPECT_EQ(h.threads(), 3);  // one lane worker, the caller's, the merging one
+    EXPECT_EQ(h.lanes(), 4);
+  }, 6);
+  ASSERT_GT(estimates, 3000);
+  for (int threads : {2, 3, 8}) {
+    ro.threads = threads;
+    const auto other = replay(ro, 12, {}, "lab", [&](const Replayer& h) {
+      EXPECT_EQ(h.threads(), std::min(threads, 4) + 2);
+    }, 6);
+    ASSERT_EQ(other.size(), one.size()) << threads;
+    EXPECT_TRUE(other == one) << threads;
+  }
+}
+
+// One lane is the replay without lanes, byte for byte: the merge puts every input and estimate
+// where one host does, and ips-zones (behind the lanes) hears the poses in the same order.
+TEST(Replayer, OneLaneIsTheWholeReplay) {
+  ReplayOptions lane;
+  lane.lanes = 1;
+  lane.threads = 2;
+  int64_t zone_events = 0;
+  const auto whole = replay({}, 20, {}, "lab", {}, 3);
+  const auto lanes = replay(lane, 20, {}, "lab", {}, 3);
+  for (const auto& o : whole) zone_events += o.channel == "ZONE_EVENT";
+  ASSERT_GT(zone_events, 0);
+  ASSERT_EQ(lanes.size(), whole.size());
+  EXPECT_TRUE(lanes == whole);
+}
+
+// With L lanes each tag's estimates are, byte for byte, those of the replay of its shard alone
+// (--shard K/L): a lane is a shard. Every input is written once, an anchor's CLOCK that every
+// lane makes the same is written once, and the accounts add up as the shards' do.
+TEST(Replayer, EachTagIsEstimatedAsByTheShardOfItsLane) {
+  constexpr int kLanes = 3;
+  ReplayOptions ro;
+  ro.lanes = kLanes;
+  ro.threads = 2;
+  int64_t repeated = 0, twr_in = 0, skipped = 0;
+  const auto lanes = replay(ro, 12, {}, "lab", [&](const Replayer& h) {
+    repeated = h.repeated_estimates();
+    skipped = h.stats().skipped_other_tags;
+    for (const auto& a : h.accounts())
+      if (a.name == "uwb_twr") twr_in = a.messages_in;
+  }, 6);
+  EXPECT_EQ(skipped, 0);
+  ASSERT_GT(twr_in, 3000);
+  const auto lane_poses = poses_by_tag(lanes);
+  size_t compared = 0;
+  std::set<std::string> tags;
+  int64_t shards_twr_in = 0;
+  std::vector<Out> first_shard;  // every input, and what every shard makes alike
+  for (int k = 1; k <= kLanes; ++k) {
+    ReplayOptions shard;
+    shard.shard = std::to_string(k) + "/" + std::to_string(kLanes);
+    const auto part = replay(shard, 12, {}, "lab", [&](const Replayer& h) {
+      for (const auto& a : h.accounts())
+        if (a.name == "uwb_twr") shards_twr_in += a.messages_in;
+    }, 6);
+    if (k == 1) first_shard = part;
+    for (const auto& [key, poses] : poses_by_tag(part)) {
+      if (shard_of(key.second, kLanes) != k) continue;  // a pose of the log's (TRUTH is not one)
+      ASSERT_TRUE(lane_poses.count(key)) << key.first << " " << key.second;
+      EXPECT_TRUE(lane_poses.at(key) == poses) << key.first << " " << key.second;
+      compared += poses.size();
+      tags.insert(key.second);
+    }
+  }
+  EXPECT_EQ(tags.size(), 6u);
+  // Each tag's ranges went to its lane; an anchor's (the site's, not a tag) to every lane, as
+  // every shard takes them.
+  EXPECT_EQ(twr_in, shards_twr_in);
+  size_t lane_pose_count = 0;
+  for (const auto& [key, poses] : lane_poses) lane_pose_count += poses.size();
+  EXPECT_EQ(compared, lane_pose_count);  // nothing else among the lanes' poses
+  // Inputs once each, and CLOCK once: every lane hears the sync master, as every shard does.
+  const auto n_lanes = events_by_channel(lanes), n_shard = events_by_channel(first_shard);
+  for (const char* input : {"UWB_RANGE", "UWB_RX", "BLE_AOA", "IMU", "BARO", "TRUTH", "SITE"})
+    EXPECT_EQ(n_lanes.at(input), n_shard.at(input)) << input;
+  ASSERT_GT(n_shard.at("CLOCK"), 10);
+  EXPECT_EQ(n_lanes.at("CLOCK"), n_shard.at("CLOCK"));
+  EXPECT_EQ(repeated, (kLanes - 1) * n_shard.at("CLOCK"));
+}
+
+// --tags with lanes: the dispatcher skips the other tags' messages (counted) and still writes them.
+TEST(Replayer, LanesTakeOnlyTheSelectedTags) {
+  ReplayOptions ro;
+  ro.lanes = 2;
+  ro.tags = "T1,T1-5*";
+  int64_t skipped = 0, events_in = 0, passed = 0;
+  const auto out = replay(ro, 12, {}, "lab", [&](const Replayer& h) {
+    skipped = h.stats().skipped_other_tags;
+    events_in = h.stats().events_in;
+    passed = h.stats().passed_through;
+    EXPECT_FALSE(h.tag_selector().selects_all());
+  }, 6);
+  std::set<std::string> fused;
+  for (const auto& [key, poses] : poses_by_tag(out))
+    if (key.first == "POSE_FUSED") fused.insert(key.second);
+  EXPECT_EQ(fused, (std::set<std::string>{"T1", "T1-5"}));
+  EXPECT_GT(skipped, 1000);
+  EXPECT_EQ(passed, events_in);  // the other tags' messages too
+  ro.lanes = 1025;
+  EXPECT_THROW(replay(ro, 1), ConfigError);
+}
+
+// A failure in the second stage (here the sink's) reaches the caller, from process() or finish(),
+// and the host still closes cleanly.
+TEST(ReplayHost, AnErrorOnTheSecondThreadIsThrownToTheCaller) {
+  // And with lanes, from the merging thread: the workers stop, the caller gets it.
+  for (int lanes : {0, 3}) {
+    sim::Scenario sc = sim::load_scenario("lab");
+    sc.duration_s = 20;
+    sim::Simulator sim(sc, 1, 1767225600000000);
+    ReplayOptions ro;
+    ro.threads = 2;
+    ro.lanes = lanes;
+    int calls = 0;
+    Replayer host(ro, CommonOptions{}, [&](const std::string&, int64_t, const uint8_t*, size_t) {
+      if (++calls == 1000) throw std::runtime_error("disk on fire");
+    });
+    std::string what;
+    try {
+      sim::SimEvent e;
+      while (sim.next(e)) host.process(e.kind, e.utime, e.data.data(), e.data.size());
+      host.finish();
+    } catch (const std::runtime_error& e) {
+      what = e.what();
+    }
+    EXPECT_EQ(what, "disk on fire") << lanes;
+    EXPECT_EQ(calls, 1000) << lanes;  // nothing run after the failure
+  }
 }
 
 // The TDoA estimator is hosted too: the lab's D1..D4 give POSE_TDOA after a UWB_RX report and a
@@ -668,12 +807,12 @@ TEST(ReplayHostAccounts, GatedOutliersAreCountedAndNamed) {
   }
   DropReasons clean, dirty;
   int64_t clean_out = 0;
-  replay(ro, 10, {}, "lab", [&](const ReplayHost& h) {
+  replay(ro, 10, {}, "lab", [&](const Replayer& h) {
     clean = h.accounts()[0].drops;
     clean_out = h.accounts()[0].estimates_out;
   });
   EstimatorAccount acc;
-  replay(ro, 10, outliers, "lab", [&](const ReplayHost& h) { acc = h.accounts()[0]; });
+  replay(ro, 10, outliers, "lab", [&](const Replayer& h) { acc = h.accounts()[0]; });
   dirty = acc.drops;
   EXPECT_GE(dirty.count(DropReason::kGated), clean.count(DropReason::kGated) + 6);
   EXPECT_GT(acc.estimates_out, clean_out / 2);
@@ -699,7 +838,7 @@ TEST(ReplayHostAccounts, ALogWithNoInputForTheHostedEstimatorsSaysSo) {
 TEST(ReplayHostAccounts, TheLabAccountsForEveryHostedEstimator) {
   std::vector<EstimatorAccount> acc;
   std::string nothing = "?";
-  replay({}, 20, {}, "lab", [&](const ReplayHost& h) {
+  replay({}, 20, {}, "lab", [&](const Replayer& h) {
     acc = h.accounts();
     nothing = h.nothing_estimated();
   });
