@@ -1,18 +1,18 @@
 // ips-replay: feeds a log, in file order, through every estimator hosted in this one process and
 // writes the inputs plus the new estimates to a new log. The same input and binary give a
 // byte-identical output.
+#include <spdlog/spdlog.h>
 #include <unistd.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cerrno>
 #include <chrono>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
-#include <atomic>
 #include <memory>
 #include <sstream>
-#include <spdlog/spdlog.h>
 #include <thread>
 #include <utility>
 
@@ -62,9 +62,9 @@ int main(int argc, char** argv) {
   int jobs = 0;
   app.add_option("--jobs", jobs,
                  "threads. A replay: 1 runs everything on one; 2 runs ips-fuse, ips-zones and the "
-                 "output on a second; with --lanes, the lanes run on this many threads beside the "
-                 "reading and writing one (the same bytes out for any number). A sweep: "
-                 "configurations replayed side by side. Default: the cores (" +
+                 "output on a second; with --lanes, the lanes run on this many threads (at most "
+                 "L) beside a reading and a merging one (the same bytes out for any number). A "
+                 "sweep: configurations replayed side by side. Default: the cores (" +
                      std::to_string(cores) + " here; at most 2 for a replay without --lanes)")
       ->check(CLI::Range(1, 1024));
   int lanes = 0;
@@ -172,10 +172,11 @@ int main(int argc, char** argv) {
       return 2;
     }
     std::atomic<bool> write_failed{false};
-    ips::replay::Replayer host(ro, opts, [&](const std::string& channel, int64_t timestamp,
-                                               const uint8_t* data, size_t size) {
-      if (!out.add(channel, timestamp, data, size)) write_failed = true;
-    });
+    ips::replay::Replayer host(
+        ro, opts,
+        [&](const std::string& channel, int64_t timestamp, const uint8_t* data, size_t size) {
+          if (!out.add(channel, timestamp, data, size)) write_failed = true;
+        });
 
     const auto t0 = std::chrono::steady_clock::now();
     int64_t first_ts = 0, last_ts = 0;
@@ -198,27 +199,37 @@ int main(int argc, char** argv) {
     const double span = 1e-6 * static_cast<double>(last_ts - first_ts);
     std::string hosted;
     for (const auto& n : host.hosted()) hosted += (hosted.empty() ? "" : ", ") + n;
-    spdlog::info("ips-replay: {} events in ({} passed through, {} regenerated channel events "
-                 "dropped), {} estimates out [{}]; {} undecodable, {} bad sites; {:.2f} s "
-                 "({:.0f} events/s, {:.0f}x real time; {} thread{}{})",
-                 s.events_in, s.passed_through, s.dropped_regenerated, s.estimates_out, hosted,
-                 s.undecodable, s.bad_sites, secs, static_cast<double>(s.events_in) / secs,
-                 secs > 0 ? span / secs : 0.0, host.threads(), host.threads() > 1 ? "s" : "",
-                 host.lanes() > 0 ? ", " + std::to_string(host.lanes()) + " lanes" : "");
+    spdlog::info(
+        "ips-replay: {} events in ({} passed through, {} regenerated channel events "
+        "dropped), {} estimates out [{}]; {} undecodable, {} bad sites; {:.2f} s "
+        "({:.0f} events/s, {:.0f}x real time; {} thread{}{})",
+        s.events_in, s.passed_through, s.dropped_regenerated, s.estimates_out, hosted,
+        s.undecodable, s.bad_sites, secs, static_cast<double>(s.events_in) / secs,
+        secs > 0 ? span / secs : 0.0, host.threads(), host.threads() > 1 ? "s" : "",
+        host.lanes() > 0 ? ", " + std::to_string(host.lanes()) + " lanes" : "");
     if (host.lanes() > 0) {
       // Where the time went, for what more cores would give (scripts/bench-replay).
       const auto cpu = host.cpu_times();
       const auto [least, most] = std::minmax_element(cpu.lanes_s.begin(), cpu.lanes_s.end());
       double sum = 0.0;
       for (double t : cpu.lanes_s) sum += t;
-      spdlog::info("ips-replay: CPU: lanes {:.2f} to {:.2f} s each, {:.2f} s in all; reading and "
-                   "dispatching {:.2f} s; ips-zones and writing {:.2f} s",
-                   *least, *most, sum, cpu.caller_s, cpu.writer_s);
+      std::string each;
+      for (double t : cpu.lanes_s) each += (each.empty() ? "" : " ") + fmt::format("{:.3f}", t);
+      spdlog::info(
+          "ips-replay: CPU: lanes {:.2f} to {:.2f} s each, {:.2f} s in all; reading and "
+          "dispatching {:.2f} s; ips-zones and writing {:.2f} s",
+          *least, *most, sum, cpu.caller_s, cpu.merging_s);
+      spdlog::info("ips-replay: CPU of each lane, s: {}", each);
     }
-    if (host.repeated_estimates() > 0)
-      spdlog::info("ips-replay: {} estimates made the same by several lanes (an anchor's CLOCK) "
-                   "written once",
-                   host.repeated_estimates());
+    if (host.repeated_estimates() > 0) {
+      std::string which;
+      for (const auto& [channel, n] : host.repeated_by_channel())
+        which += (which.empty() ? "" : ", ") + channel + " " + std::to_string(n);
+      spdlog::info(
+          "ips-replay: {} estimates made the same by several lanes for the same input "
+          "written once ({}); the accounts count each lane's",
+          host.repeated_estimates(), which);
+    }
     if (!host.tag_selector().selects_all())
       spdlog::info("ips-replay: {}: {} messages of other tags not estimated (passed through)",
                    host.tag_selector().describe(), s.skipped_other_tags);

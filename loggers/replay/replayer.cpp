@@ -27,7 +27,7 @@ constexpr size_t kMaxJobsInFlight = 4;
 }  // namespace
 
 Replayer::Replayer(const ReplayOptions& opts, const CommonOptions& channels, ReplayHost::Sink sink)
-    : opts_(opts), channels_(channels), job_(std::make_unique<Job>()) {
+    : opts_(opts), channels_(channels) {
   if (opts_.lanes < 0 || opts_.lanes > kMaxShards)
     throw ConfigError("--lanes: " + std::to_string(opts_.lanes) + " is not from 1 to " +
                       std::to_string(kMaxShards));
@@ -49,19 +49,20 @@ Replayer::Replayer(const ReplayOptions& opts, const CommonOptions& channels, Rep
   ReplayOptions lane = opts_;
   lane.threads = 1;
   lane.lanes = 0;
-  lane.tags.clear();  // the dispatcher applies --tags and --shard
+  lane.tags.clear();  // the dispatcher applies --tags and --shard, and hands a lane only its tags
+  lane.shard.clear();
   lane.pass_through = false;
   lane.except.insert("zones");
   lanes_.reserve(static_cast<size_t>(opts_.lanes));  // a lane's sink keeps its address
   for (int k = 0; k < opts_.lanes; ++k) {
-    lane.shard = std::to_string(k + 1) + "/" + std::to_string(opts_.lanes);
     Lane& l = lanes_.emplace_back();
     Lane* self = &l;
     l.host = std::make_unique<ReplayHost>(
         lane, channels_,
         [self](const std::string& ch, int64_t ts, const uint8_t* data, size_t size) {
           LaneOutput& out = *self->output;
-          const auto name = self->channels.emplace(ch).first;
+          auto name = self->channels.find(ch);  // no node made per estimate
+          if (name == self->channels.end()) name = self->channels.emplace(ch).first;
           out.estimates.push_back(Estimate{self->event, &*name, ts, out.bytes.size(), size});
           out.bytes.insert(out.bytes.end(), data, data + size);
         });
@@ -76,19 +77,28 @@ Replayer::Replayer(const ReplayOptions& opts, const CommonOptions& channels, Rep
       merger.except.insert(name);
   merger.produced_elsewhere = lanes_.front().host->produced_channels();
   merger_ = std::make_unique<ReplayHost>(merger, channels_, std::move(sink));
+  job_ = take_spare_job();
   caller_cpu_start_s_ = thread_cpu_s();
   const size_t workers = static_cast<size_t>(std::clamp(opts_.threads, 1, opts_.lanes));
-  for (size_t w = 0; w < workers; ++w) workers_.emplace_back(&Replayer::worker, this, w);
-  merging_ = std::thread(&Replayer::merging, this);
+  try {
+    for (size_t w = 0; w < workers; ++w) workers_.emplace_back(&Replayer::worker, this, w);
+    merging_ = std::thread(&Replayer::merging, this);
+  } catch (...) {  // no thread to be had: those started stop before the error leaves
+    stop_threads();
+    throw;
+  }
 }
 
-Replayer::~Replayer() {
+Replayer::~Replayer() { stop_threads(); }
+
+void Replayer::stop_threads() {
   {
     std::lock_guard<std::mutex> l(mutex_);
     stop_ = true;
   }
   cv_.notify_all();
   for (auto& t : workers_) t.join();
+  workers_.clear();
   if (merging_.joinable()) merging_.join();
 }
 
@@ -122,7 +132,14 @@ int32_t Replayer::lane_of_id(const std::string& id) {
     ++skipped_;
     return kToNoLane;
   }
-  return shard_of(id, static_cast<int>(lanes_.size())) - 1;
+  return lane_of_tag(id, static_cast<int>(lanes_.size()), selector_.shards());
+}
+
+int Replayer::lane_of_tag(std::string_view id, int lanes, int shards) {
+  // shard_of(id, L) - 1 when the tags are not sharded, so that a lane is --shard K/L; within
+  // --shard K/N, the hash over N first, so that shard K's tags still spread over the lanes.
+  const uint64_t n = shards > 0 ? static_cast<uint64_t>(shards) : 1;
+  return static_cast<int>(fnv1a64(id) / n % static_cast<uint64_t>(lanes));
 }
 
 int32_t Replayer::lane_of(Route route, const uint8_t* data, size_t size) {
@@ -184,9 +201,21 @@ void Replayer::process(const std::string& channel, int64_t timestamp, const uint
   end_timestamp_ = timestamp;
   auto it = routes_.find(channel);
   if (it == routes_.end()) it = routes_.emplace(channel, route_of(channel)).first;
-  Event e{&it->first, timestamp, stable ? data : nullptr, job_->bytes.size(), size,
-          lane_of(it->second, data, size), !stable};
+  Event e{&it->first,
+          timestamp,
+          stable ? data : nullptr,
+          job_->bytes.size(),
+          size,
+          lane_of(it->second, data, size),
+          !stable};
   if (!stable) job_->bytes.insert(job_->bytes.end(), data, data + size);
+  // Each lane walks only its own events (and those of every lane), not the whole job.
+  const auto index = static_cast<uint32_t>(job_->events.size());
+  if (e.lane == kToEveryLane) {
+    for (auto& own : job_->lane_events) own.push_back(index);
+  } else if (e.lane >= 0) {
+    job_->lane_events[static_cast<size_t>(e.lane)].push_back(index);
+  }
   job_->events.push_back(e);
   if (job_->events.size() >= kJobEvents) submit();
 }
@@ -235,7 +264,7 @@ void Replayer::merging() {
       record_error();
       return;
     }
-    if (last) writer_cpu_s_ = thread_cpu_s();
+    if (last) merging_cpu_s_ = thread_cpu_s();
     {
       std::lock_guard<std::mutex> l(mutex_);
       spare_jobs_.push_back(std::move(done));
@@ -247,12 +276,17 @@ void Replayer::merging() {
 }
 
 std::unique_ptr<Replayer::Job> Replayer::take_spare_job() {
-  if (spare_jobs_.empty()) return std::make_unique<Job>();
+  if (spare_jobs_.empty()) {
+    auto job = std::make_unique<Job>();
+    job->lane_events.resize(lanes_.size());
+    return job;
+  }
   auto job = std::move(spare_jobs_.back());
   spare_jobs_.pop_back();
   job->events.clear();
   job->bytes.clear();
   job->finish = false;
+  for (auto& own : job->lane_events) own.clear();
   for (LaneOutput& out : job->output) {
     out.estimates.clear();
     out.bytes.clear();
@@ -290,10 +324,8 @@ void Replayer::run(Job& job, size_t worker_index) {
     Lane& lane = lanes_[k];
     const double t0 = thread_cpu_s();
     lane.output = &job.output[k];
-    const auto me = static_cast<int32_t>(k);
-    for (uint32_t i = 0; i < events; ++i) {
+    for (const uint32_t i : job.lane_events[k]) {
       const Event& e = job.events[i];
-      if (e.lane != me && e.lane != kToEveryLane) continue;
       lane.event = i;
       lane.host->process(*e.channel, e.timestamp, e.data, e.size, true);
     }
@@ -306,44 +338,54 @@ void Replayer::run(Job& job, size_t worker_index) {
 }
 
 void Replayer::merge(Job& job) {
-  std::vector<size_t> next(lanes_.size(), 0);
+  // Every lane's estimates in the order they are written: by the event that caused them, then
+  // lane, then as the lane made them (each lane's list is in event order already).
+  merge_order_.clear();
+  for (uint32_t k = 0; k < lanes_.size(); ++k) {
+    const auto& estimates = job.output[k].estimates;
+    for (uint32_t n = 0; n < estimates.size(); ++n)
+      merge_order_.push_back(Placed{estimates[n].event, k, n});
+  }
+  std::stable_sort(merge_order_.begin(), merge_order_.end(),
+                   [](const Placed& a, const Placed& b) { return a.event < b.event; });
   // An estimate that serves every tag (an anchor's CLOCK, made from the sync master's broadcasts
   // every lane hears) is made by every lane: the same bytes from a later lane for the same event
   // and channel are written once. Estimates that differ are all written.
-  std::vector<std::pair<const Estimate*, const uint8_t*>> written;
-  // Whether an earlier lane wrote these bytes on this channel for this event (the first
-  // `earlier` of `written`).
-  const auto repeats = [&](const Estimate& m, const uint8_t* bytes, size_t earlier) {
-    for (size_t i = 0; i < earlier; ++i) {
-      const auto& [w, w_bytes] = written[i];
-      if (w->size == m.size && *w->channel == *m.channel &&
-          std::equal(bytes, bytes + m.size, w_bytes))
+  struct Written {
+    uint32_t lane;
+    const Estimate* estimate;
+    const uint8_t* bytes;
+  };
+  std::vector<Written> written;  // this event's
+  const auto repeats = [&](uint32_t lane, const Estimate& m, const uint8_t* bytes) {
+    for (const Written& w : written)
+      if (w.lane < lane && w.estimate->size == m.size && *w.estimate->channel == *m.channel &&
+          std::equal(bytes, bytes + m.size, w.bytes))
         return true;
-    }
     return false;
   };
+  size_t next = 0;
   const auto estimates_of = [&](uint32_t event) {
     written.clear();
-    for (size_t k = 0; k < lanes_.size(); ++k) {
-      const LaneOutput& out = job.output[k];
-      const size_t earlier = written.size();
-      for (size_t& n = next[k]; n < out.estimates.size() && out.estimates[n].event == event; ++n) {
-        const Estimate& m = out.estimates[n];
-        const uint8_t* bytes = out.bytes.data() + m.offset;
-        if (repeats(m, bytes, earlier)) {
-          ++repeated_;
-          continue;
-        }
-        merger_->estimate(*m.channel, m.timestamp, bytes, m.size);
-        written.emplace_back(&m, bytes);
+    for (; next < merge_order_.size() && merge_order_[next].event == event; ++next) {
+      const Placed& at = merge_order_[next];
+      const LaneOutput& out = job.output[at.lane];
+      const Estimate& m = out.estimates[at.index];
+      const uint8_t* bytes = out.bytes.data() + m.offset;
+      if (repeats(at.lane, m, bytes)) {
+        ++repeated_;
+        ++repeated_by_channel_[*m.channel];
+        continue;
       }
+      merger_->estimate(*m.channel, m.timestamp, bytes, m.size);
+      written.push_back(Written{at.lane, &m, bytes});
     }
   };
   const auto events = static_cast<uint32_t>(job.events.size());
   for (uint32_t i = 0; i < events; ++i) {
     const Event& e = job.events[i];
     merger_->process(*e.channel, e.timestamp, e.data, e.size, !e.copied);
-    estimates_of(i);
+    if (next < merge_order_.size() && merge_order_[next].event == i) estimates_of(i);
   }
   estimates_of(events);  // the lanes' finish()
 }
@@ -353,7 +395,10 @@ void Replayer::finish() {
     single_->finish();
     return;
   }
-  if (finished_) return;
+  if (finished_) {
+    rethrow_worker_error();  // a first finish() that threw does not end well the second time
+    return;
+  }
   finished_ = true;
   job_->finish = true;
   submit();
@@ -369,7 +414,7 @@ Replayer::CpuTimes Replayer::cpu_times() const {
   CpuTimes t;
   for (const Lane& l : lanes_) t.lanes_s.push_back(l.cpu_s);
   t.caller_s = caller_cpu_s_;
-  t.writer_s = writer_cpu_s_;
+  t.merging_s = merging_cpu_s_;
   return t;
 }
 

@@ -4,14 +4,15 @@
 //
 // Lanes. A lane is a ReplayHost with its own instance of every hosted estimator but ips-zones,
 // taking the tags whose shard among L is its own (--shard K/L: core/tag_selector.hpp), as L shards
-// of a live site do. A dispatcher (the caller's thread) reads each event's tag once and hands it to
-// its lane only; what serves every tag (a site, a sync master's broadcast, a reference station's
-// reading, an anchor's or a station's own message) goes to every lane. `threads` workers run the
-// lanes, each a fixed set of them, over batches of events. The caller's thread then merges the
-// batches in log order: each input (or its drop, when the lanes regenerate its channel), then the
-// estimates it caused in lane order, through one more ReplayHost that hosts ips-zones (it sees
-// every tag's poses) and makes every call of the sink. So the output depends on L and never on the
-// threads: `--lanes 8 --jobs 1` and `--lanes 8 --jobs 2` give the same bytes.
+// of a live site do (within --shard K/N, the hash over N first: the tags of shard K spread over
+// the lanes). A dispatcher (the caller's thread) reads each event's tag once and hands it to its
+// lane only; what serves every tag (a site, a sync master's broadcast, a reference station's
+// reading, an anchor's or a station's own message) goes to every lane. `threads` workers (at most
+// L) run the lanes, each a fixed set of them, over batches of events. A merging thread takes the
+// batches in log order and writes each input (or drops it, when the lanes regenerate its
+// channel), then the estimates it caused in lane order, through one more ReplayHost that hosts
+// ips-zones (it sees every tag's poses) and makes every call of the sink. So the output depends on
+// L and never on the threads: `--lanes 8 --jobs 1` and `--lanes 8 --jobs 2` give the same bytes.
 //
 // What lanes change: the estimates are those of L shards, not of one instance. Whatever one
 // estimator learns across tags (each anchor's range and angle noise, the TDoA anchors' clocks)
@@ -21,9 +22,11 @@
 #include <cstdint>
 #include <deque>
 #include <exception>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <string>
+#include <string_view>
 #include <thread>
 #include <unordered_map>
 #include <unordered_set>
@@ -35,7 +38,7 @@ namespace ips::replay {
 
 class Replayer {
  public:
-  // Throws ConfigError as ReplayHost does, and for lanes outside 0 to kMaxShards.
+  // Throws ConfigError as ReplayHost does, and for lanes outside 0 (none) to kMaxShards.
   Replayer(const ReplayOptions& opts, const CommonOptions& channels, ReplayHost::Sink sink);
   ~Replayer();
   Replayer(const Replayer&) = delete;
@@ -54,9 +57,13 @@ class Replayer {
   bool has_site() const;
   std::vector<std::string> hosted() const;
   int lanes() const { return static_cast<int>(lanes_.size()); }
+  // The lane (0-based) of a tag among `lanes`, the tags sharded N ways (--shard K/N; 0: not).
+  static int lane_of_tag(std::string_view id, int lanes, int shards);
   // Estimates that a lane made with the same bytes as an earlier lane for the same event and
   // channel (an anchor's CLOCK), written once.
   int64_t repeated_estimates() const { return repeated_; }
+  // ... per channel ("CLOCK" 1673).
+  const std::map<std::string, int64_t>& repeated_by_channel() const { return repeated_by_channel_; }
   // The threads the replay runs on (the caller's included).
   int threads() const;
   // With lanes, after finish(): the CPU each lane took (on whichever worker), the caller's thread
@@ -64,7 +71,7 @@ class Replayer {
   // the lanes would take on more cores follows from them.
   struct CpuTimes {
     std::vector<double> lanes_s;
-    double caller_s = 0.0, writer_s = 0.0;
+    double caller_s = 0.0, merging_s = 0.0;
   };
   CpuTimes cpu_times() const;
 
@@ -91,21 +98,33 @@ class Replayer {
   };
   struct Job {
     std::vector<Event> events;
-    std::vector<uint8_t> bytes;      // copies of unstable events
-    std::vector<LaneOutput> output;  // per lane
-    bool finish = false;             // the lanes' finish() after the events
-    int pending = 0;                 // workers yet to run it
+    std::vector<uint8_t> bytes;                      // copies of unstable events
+    std::vector<std::vector<uint32_t>> lane_events;  // per lane, the indices of its events
+    std::vector<LaneOutput> output;                  // per lane
+    bool finish = false;                             // the lanes' finish() after the events
+    int pending = 0;                                 // workers yet to run it
   };
   struct Lane {
     std::unique_ptr<ReplayHost> host;
     std::unordered_set<std::string> channels;  // the names its estimates were written on
-    LaneOutput* output = nullptr;             // the job it runs
-    uint32_t event = 0;                       // ... and the event in it
-    double cpu_s = 0.0;                       // its worker's CPU time while running it
+    LaneOutput* output = nullptr;              // the job it runs
+    uint32_t event = 0;                        // ... and the event in it
+    double cpu_s = 0.0;                        // its worker's CPU time while running it
   };
   // What the dispatcher reads from a channel's events to find their lane.
-  enum class Route : uint8_t { kNone, kSite, kRange, kRx, kPair, kAoa, kImu, kBaro, kPose, kStep,
-                               kAltitude };
+  enum class Route : uint8_t {
+    kNone,
+    kSite,
+    kRange,
+    kRx,
+    kPair,
+    kAoa,
+    kImu,
+    kBaro,
+    kPose,
+    kStep,
+    kAltitude
+  };
   Route route_of(const std::string& channel) const;
   int32_t lane_of(Route route, const uint8_t* data, size_t size);
   int32_t lane_of_id(const std::string& id);
@@ -113,7 +132,8 @@ class Replayer {
   void worker(size_t index);
   void run(Job& job, size_t worker_index);
   void merge(Job& job);
-  void merging();  // the merging thread: each job, in order, once every worker has run it
+  void stop_threads();  // stops and joins every thread started
+  void merging();       // the merging thread: each job, in order, once every worker has run it
   void record_error();  // the current exception, from a worker or the merging thread
   void rethrow_worker_error();
   std::unique_ptr<Job> take_spare_job();  // a merged job, emptied, or a new one (under mutex_)
@@ -122,14 +142,16 @@ class Replayer {
   CommonOptions channels_;
   std::unique_ptr<ReplayHost> single_;  // no lanes
   std::vector<Lane> lanes_;
-  std::unique_ptr<ReplayHost> merger_;  // ips-zones and the sink, behind the lanes
+  std::unique_ptr<ReplayHost> merger_;             // ips-zones and the sink, behind the lanes
   std::unordered_map<std::string, Route> routes_;  // keys' addresses are stable: Event::channel
   TagSelector selector_;                           // --tags, --shard
   std::unordered_set<std::string> non_tags_;       // the site's anchors and stations
   std::string last_site_yaml_;
   int64_t events_in_ = 0, skipped_ = 0, end_timestamp_ = 0;
+  // Estimates a later lane repeated byte for byte, written once: in all and per channel.
   int64_t repeated_ = 0;
-  double caller_cpu_start_s_ = 0.0, caller_cpu_s_ = 0.0, writer_cpu_s_ = 0.0;  // estimates a later lane repeated byte for byte, written once
+  std::map<std::string, int64_t> repeated_by_channel_;
+  double caller_cpu_start_s_ = 0.0, caller_cpu_s_ = 0.0, merging_cpu_s_ = 0.0;
   std::unique_ptr<Job> job_;
 
   std::vector<std::thread> workers_;
@@ -144,6 +166,10 @@ class Replayer {
   std::exception_ptr worker_error_;
   std::atomic<bool> worker_failed_{false};
   std::vector<std::unique_ptr<Job>> spare_jobs_;  // merged, to fill again
+  struct Placed {  // an estimate of a job: its event, lane and index in the lane's list
+    uint32_t event, lane, index;
+  };
+  std::vector<Placed> merge_order_;  // the merging thread's
 };
 
 }  // namespace ips::replay

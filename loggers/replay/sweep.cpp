@@ -3,9 +3,9 @@
 #include <algorithm>
 #include <atomic>
 #include <cerrno>
+#include <cmath>
 #include <cstdio>
 #include <cstring>
-#include <cmath>
 #include <filesystem>
 #include <ips/pose_t.hpp>
 #include <ips/site_t.hpp>
@@ -68,7 +68,7 @@ SweepScore score(const SweepOptions& o, const std::string& path, std::shared_ptr
     out = std::make_unique<LogWriter>(out_path);
     if (!out->ok()) throw ConfigError(out->error());
   }
-  bool write_failed = false;
+  std::atomic<bool> write_failed{false};  // set by the sink: with lanes, on the merging thread
   ReplayOptions ro = o.replay;
   ro.site = std::move(site);
   ro.site_path.clear();
@@ -76,8 +76,7 @@ SweepScore score(const SweepOptions& o, const std::string& path, std::shared_ptr
   eval::Evaluator ev;
   const std::string truth = o.channels.channel(channel::kTruth);
   pose_t m;
-  Replayer host(ro, o.channels, [&](const std::string& ch, int64_t ts, const uint8_t* d,
-                                       size_t n) {
+  Replayer host(ro, o.channels, [&](const std::string& ch, int64_t ts, const uint8_t* d, size_t n) {
     if (out && !out->add(ch, ts, d, n)) write_failed = true;
     if (ch != truth && ch != o.channel) return;
     if (!decode_message(m, d, n)) return;

@@ -28,15 +28,15 @@ std::string replay(std::span<const uint8_t> log, int lanes, int threads) {
   ro.lanes = lanes;
   ro.threads = threads;
   std::string out;
-  ips::replay::Replayer r(ro, ips::CommonOptions{},
-                          [&](const std::string& channel, int64_t timestamp, const uint8_t* data,
-                              size_t size) {
-                            out += channel;
-                            out += '\0';
-                            out.append(reinterpret_cast<const char*>(&timestamp), sizeof timestamp);
-                            out.append(reinterpret_cast<const char*>(&size), sizeof size);
-                            out.append(reinterpret_cast<const char*>(data), size);
-                          });
+  ips::replay::Replayer r(
+      ro, ips::CommonOptions{},
+      [&](const std::string& channel, int64_t timestamp, const uint8_t* data, size_t size) {
+        out += channel;
+        out += '\0';
+        out.append(reinterpret_cast<const char*>(&timestamp), sizeof timestamp);
+        out.append(reinterpret_cast<const char*>(&size), sizeof size);
+        out.append(reinterpret_cast<const char*>(data), size);
+      });
   // In place: the events' bytes stay where they are until the end, as from a mapped log.
   ips::MemoryLogSource source(log, log.size(), true, true);
   ips::LogReader reader(source);

@@ -1,7 +1,6 @@
 // The replay host: inputs pass through, estimates follow the input that caused them, regenerated
 // channels are dropped unless kept, and the same events give the same bytes.
 #include "loggers/replay/replay_host.hpp"
-#include "loggers/replay/replayer.hpp"
 
 #include <gtest/gtest.h>
 
@@ -13,16 +12,17 @@
 #include <ips/clock_t.hpp>
 #include <ips/imu_t.hpp>
 #include <ips/pose_t.hpp>
+#include <ips/site_t.hpp>
 #include <ips/step_t.hpp>
 #include <ips/uwb_range_t.hpp>
 #include <ips/zone_event_t.hpp>
 #include <map>
 #include <set>
 #include <stdexcept>
-#include <ips/site_t.hpp>
 
 #include "core/site.hpp"
 #include "drivers/sim/simulator.hpp"
+#include "loggers/replay/replayer.hpp"
 
 namespace ips::replay {
 namespace {
@@ -40,15 +40,16 @@ struct Out {
 std::vector<Out> replay(const ReplayOptions& ro, double duration_s = 20,
                         const std::vector<Out>& extra_inputs = {},
                         const std::string& scenario = "lab",
-                        const std::function<void(const Replayer&)>& inspect = {},
-                        int walkers = 1) {
+                        const std::function<void(const Replayer&)>& inspect = {}, int walkers = 1) {
   sim::Scenario sc = sim::load_scenario(scenario);
   sc.duration_s = duration_s;
   sim::replicate_walkers(sc, walkers);
   sim::Simulator sim(sc, 1, 1767225600000000);
   std::vector<Out> out;
-  Replayer host(ro, CommonOptions{}, [&](const std::string& ch, int64_t ts, const uint8_t* d,
-                                          size_t n) { out.push_back({ch, ts, {d, d + n}}); });
+  Replayer host(ro, CommonOptions{},
+                [&](const std::string& ch, int64_t ts, const uint8_t* d, size_t n) {
+                  out.push_back({ch, ts, {d, d + n}});
+                });
   auto extra = extra_inputs.begin();
   auto process_extra_until = [&](int64_t t) {
     for (; extra != extra_inputs.end() && extra->timestamp <= t; ++extra)
@@ -118,9 +119,8 @@ TEST(ReplayHost, ShardsSplitTheTagsAndTogetherEstimateEveryOne) {
     return n;
   };
   int64_t inputs_whole = 0;
-  const auto whole = poses_by_tag(replay({}, 20, {}, "lab", [&](const Replayer& h) {
-    inputs_whole = h.stats().passed_through;
-  }, 6));
+  const auto whole = poses_by_tag(replay(
+      {}, 20, {}, "lab", [&](const Replayer& h) { inputs_whole = h.stats().passed_through; }, 6));
   ASSERT_EQ(whole.at("POSE_FUSED").size(), 6u);
   std::map<std::string, std::map<std::string, int>> joined;
   int64_t skipped = 0;
@@ -128,10 +128,13 @@ TEST(ReplayHost, ShardsSplitTheTagsAndTogetherEstimateEveryOne) {
     ReplayOptions ro;
     ro.shard = std::to_string(k) + "/3";
     int64_t passed = 0;
-    const auto part = poses_by_tag(replay(ro, 20, {}, "lab", [&](const Replayer& h) {
-      passed = h.stats().passed_through;
-      skipped += h.stats().skipped_other_tags;
-    }, 6));
+    const auto part = poses_by_tag(replay(
+        ro, 20, {}, "lab",
+        [&](const Replayer& h) {
+          passed = h.stats().passed_through;
+          skipped += h.stats().skipped_other_tags;
+        },
+        6));
     EXPECT_EQ(passed, inputs_whole) << ro.shard;  // every input still passed through
     for (const auto& [channel, tags] : part)
       for (const auto& [tag, n] : tags) {
@@ -187,17 +190,20 @@ TEST(Replayer, LanesGiveTheSameBytesOnAnyNumberOfThreads) {
   ReplayOptions ro;
   ro.lanes = 4;
   int64_t estimates = 0;
-  const auto one = replay(ro, 12, {}, "lab", [&](const Replayer& h) {
-    estimates = h.stats().estimates_out;
-    EXPECT_EQ(h.threads(), 3);  // one lane worker, the caller's, the merging one
-    EXPECT_EQ(h.lanes(), 4);
-  }, 6);
+  const auto one = replay(
+      ro, 12, {}, "lab",
+      [&](const Replayer& h) {
+        estimates = h.stats().estimates_out;
+        EXPECT_EQ(h.threads(), 3);  // one lane worker, the caller's, the merging one
+        EXPECT_EQ(h.lanes(), 4);
+      },
+      6);
   ASSERT_GT(estimates, 3000);
   for (int threads : {2, 3, 8}) {
     ro.threads = threads;
-    const auto other = replay(ro, 12, {}, "lab", [&](const Replayer& h) {
-      EXPECT_EQ(h.threads(), std::min(threads, 4) + 2);
-    }, 6);
+    const auto other = replay(
+        ro, 12, {}, "lab",
+        [&](const Replayer& h) { EXPECT_EQ(h.threads(), std::min(threads, 4) + 2); }, 6);
     ASSERT_EQ(other.size(), one.size()) << threads;
     EXPECT_TRUE(other == one) << threads;
   }
@@ -227,12 +233,15 @@ TEST(Replayer, EachTagIsEstimatedAsByTheShardOfItsLane) {
   ro.lanes = kLanes;
   ro.threads = 2;
   int64_t repeated = 0, twr_in = 0, skipped = 0;
-  const auto lanes = replay(ro, 12, {}, "lab", [&](const Replayer& h) {
-    repeated = h.repeated_estimates();
-    skipped = h.stats().skipped_other_tags;
-    for (const auto& a : h.accounts())
-      if (a.name == "uwb_twr") twr_in = a.messages_in;
-  }, 6);
+  const auto lanes = replay(
+      ro, 12, {}, "lab",
+      [&](const Replayer& h) {
+        repeated = h.repeated_estimates();
+        skipped = h.stats().skipped_other_tags;
+        for (const auto& a : h.accounts())
+          if (a.name == "uwb_twr") twr_in = a.messages_in;
+      },
+      6);
   EXPECT_EQ(skipped, 0);
   ASSERT_GT(twr_in, 3000);
   const auto lane_poses = poses_by_tag(lanes);
@@ -243,10 +252,13 @@ TEST(Replayer, EachTagIsEstimatedAsByTheShardOfItsLane) {
   for (int k = 1; k <= kLanes; ++k) {
     ReplayOptions shard;
     shard.shard = std::to_string(k) + "/" + std::to_string(kLanes);
-    const auto part = replay(shard, 12, {}, "lab", [&](const Replayer& h) {
-      for (const auto& a : h.accounts())
-        if (a.name == "uwb_twr") shards_twr_in += a.messages_in;
-    }, 6);
+    const auto part = replay(
+        shard, 12, {}, "lab",
+        [&](const Replayer& h) {
+          for (const auto& a : h.accounts())
+            if (a.name == "uwb_twr") shards_twr_in += a.messages_in;
+        },
+        6);
     if (k == 1) first_shard = part;
     for (const auto& [key, poses] : poses_by_tag(part)) {
       if (shard_of(key.second, kLanes) != k) continue;  // a pose of the log's (TRUTH is not one)
@@ -272,24 +284,54 @@ TEST(Replayer, EachTagIsEstimatedAsByTheShardOfItsLane) {
   EXPECT_EQ(repeated, (kLanes - 1) * n_shard.at("CLOCK"));
 }
 
-// --tags with lanes: the dispatcher skips the other tags' messages (counted) and still writes them.
+// --tags and --shard with lanes: the dispatcher skips the other tags' messages (counted) and still
+// writes them.
 TEST(Replayer, LanesTakeOnlyTheSelectedTags) {
   ReplayOptions ro;
   ro.lanes = 2;
   ro.tags = "T1,T1-5*";
   int64_t skipped = 0, events_in = 0, passed = 0;
-  const auto out = replay(ro, 12, {}, "lab", [&](const Replayer& h) {
-    skipped = h.stats().skipped_other_tags;
-    events_in = h.stats().events_in;
-    passed = h.stats().passed_through;
-    EXPECT_FALSE(h.tag_selector().selects_all());
-  }, 6);
+  const auto out = replay(
+      ro, 12, {}, "lab",
+      [&](const Replayer& h) {
+        skipped = h.stats().skipped_other_tags;
+        events_in = h.stats().events_in;
+        passed = h.stats().passed_through;
+        EXPECT_FALSE(h.tag_selector().selects_all());
+      },
+      6);
   std::set<std::string> fused;
   for (const auto& [key, poses] : poses_by_tag(out))
     if (key.first == "POSE_FUSED") fused.insert(key.second);
   EXPECT_EQ(fused, (std::set<std::string>{"T1", "T1-5"}));
   EXPECT_GT(skipped, 1000);
   EXPECT_EQ(passed, events_in);  // the other tags' messages too
+  // Within --shard K/N the hash is taken over N first: the shard's tags spread over the lanes
+  // (by shard_of(id, 2) alone, every tag of shard 1 would be in lane 1 of 2).
+  std::set<int> lanes_of_shard_1;
+  for (const std::string id : {"T1", "T1-2", "T1-3", "T1-4", "T1-5", "T1-6"}) {
+    EXPECT_EQ(Replayer::lane_of_tag(id, 4, 0), shard_of(id, 4) - 1) << id;  // a lane is a shard
+    if (shard_of(id, 2) == 1) lanes_of_shard_1.insert(Replayer::lane_of_tag(id, 2, 2));
+  }
+  EXPECT_EQ(lanes_of_shard_1, (std::set<int>{0, 1}));
+  ro.tags = "";
+  ro.shard = "1/2";
+  int64_t estimated = 0;
+  const auto shard = replay(
+      ro, 12, {}, "lab",
+      [&](const Replayer& h) {
+        const auto cpu = h.cpu_times();
+        ASSERT_EQ(cpu.lanes_s.size(), 2u);
+        for (const auto& a : h.accounts())
+          if (a.name == "fuse") estimated = a.estimates_out;
+      },
+      6);
+  std::set<std::string> shard_fused;
+  for (const auto& [key, poses] : poses_by_tag(shard))
+    if (key.first == "POSE_FUSED") shard_fused.insert(key.second);
+  for (const auto& id : shard_fused) EXPECT_EQ(shard_of(id, 2), 1) << id;
+  EXPECT_GE(shard_fused.size(), 2u);
+  EXPECT_GT(estimated, 0);
   ro.lanes = 1025;
   EXPECT_THROW(replay(ro, 1), ConfigError);
 }
