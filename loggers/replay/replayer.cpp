@@ -22,7 +22,7 @@ namespace ips::replay {
 
 namespace {
 // Events per job, and jobs in flight at most (run, or waiting to be merged).
-constexpr size_t kJobEvents = 8192;
+constexpr size_t kJobEvents = 32768;
 constexpr size_t kMaxJobsInFlight = 4;
 }  // namespace
 
