@@ -187,32 +187,36 @@ uint32_t ReplayHost::intern(const std::string& channel) {
   return index;
 }
 
+ReplayHost::Input ReplayHost::input_of(const std::string& channel) const {
+  const auto is = [&](const char* kind) { return channel == channels_.channel(kind); };
+  const auto read_if = [](bool read, Input input) { return read ? input : Input::kOther; };
+  if (is(channel::kSite)) return read_if(opts_.site_path.empty() && !opts_.site, Input::kSite);
+  if (is(channel::kUwbRange)) return read_if(twr_ || fuse_, Input::kUwbRange);
+  if (is(channel::kUwbRx)) return read_if(tdoa_ || fuse_, Input::kUwbRx);
+  if (is(channel::kUwbTdoa)) return read_if(tdoa_ || fuse_, Input::kUwbTdoa);  // pairwise
+  if (is(channel::kBleAoa)) return read_if(aoa_ || fuse_, Input::kBleAoa);
+  if (is(channel::kImu)) return read_if(pdr_ || ins_ || fuse_, Input::kImu);
+  if (is(channel::kBaro)) return read_if(altitude_ != nullptr, Input::kBaro);
+  // What a hosted estimator regenerates reaches ips-fuse as it is written, not from the log.
+  if (!fuse_ || produced_channels_.count(channel) || !fuse_log_channels_.count(channel))
+    return Input::kOther;
+  if (is(channel::kStep)) return Input::kFuseStep;
+  if (is(channel::kAltitude)) return Input::kFuseAltitude;
+  return Input::kFusePose;
+}
+
 const ReplayHost::ChannelInfo& ReplayHost::classify(const std::string& channel) {
   const auto it = channel_info_.find(channel);
   if (it != channel_info_.end()) return it->second;
   ChannelInfo c;
   c.id = intern(channel);
   c.produced = produced_channels_.count(channel) > 0;
+  c.input = input_of(channel);
   const auto is = [&](const char* kind) { return channel == channels_.channel(kind); };
-  if (is(channel::kSite)) {
-    c.input = Input::kSite;
-  } else if (is(channel::kUwbRange)) {
-    c.input = Input::kUwbRange;
-  } else if (is(channel::kUwbRx)) {
-    c.input = Input::kUwbRx;
-  } else if (is("UWB_TDOA")) {  // pairwise TDoA
-    c.input = Input::kUwbTdoa;
-  } else if (is(channel::kBleAoa)) {
-    c.input = Input::kBleAoa;
-  } else if (is(channel::kImu)) {
-    c.input = Input::kImu;
-  } else if (is(channel::kBaro)) {
-    c.input = Input::kBaro;
-  }
-  // What a hosted estimator regenerates reaches ips-zones and ips-fuse as it is written.
-  c.to_zones = zones_ && !c.produced &&
-               (channel == opts_.zones_pose_channel || is(channel::kAltitude) || is(channel::kHealth));
-  c.to_fuse = fuse_ && !c.produced && fuse_log_channels_.count(channel) > 0;
+  // What a hosted estimator regenerates reaches ips-zones as it is written.
+  c.to_zones =
+      zones_ && !c.produced &&
+      (channel == opts_.zones_pose_channel || is(channel::kAltitude) || is(channel::kHealth));
   return channel_info_.emplace(channel, c).first->second;
 }
 
@@ -569,7 +573,6 @@ void ReplayHost::process(const std::string& channel, int64_t timestamp, const ui
   };
   switch (c.input) {
     case Input::kSite: {
-      if (!opts_.site_path.empty() || opts_.site) break;
       site_t m;
       if (!decode(m) || m.site_yaml == last_site_yaml_) break;
       try {
@@ -582,7 +585,7 @@ void ReplayHost::process(const std::string& channel, int64_t timestamp, const ui
     }
     case Input::kUwbRange: {
       uwb_range_t m;
-      if (!(twr_ || fuse_) || !decode(m) || !take(m.tag_id)) break;
+      if (!decode(m) || !take(m.tag_id)) break;
       if (twr_) {
         ++counts_[kTwrIndex].in;
         twr_->on_range(m);
@@ -593,7 +596,7 @@ void ReplayHost::process(const std::string& channel, int64_t timestamp, const ui
     case Input::kUwbRx: {
       uwb_rx_t m;
       // A sync master's broadcast serves every tag.
-      if (!(tdoa_ || fuse_) || !decode(m) || (!m.is_sync && !take(m.sender_id))) break;
+      if (!decode(m) || (!m.is_sync && !take(m.sender_id))) break;
       // ips-fuse hears a blink before the POSE_TDOA made of it, as on the bus.
       if (fuse_) post(Op::kFuseRx, c.id, data, size, stable);
       if (tdoa_) {
@@ -604,7 +607,7 @@ void ReplayHost::process(const std::string& channel, int64_t timestamp, const ui
     }
     case Input::kUwbTdoa: {
       uwb_tdoa_t m;
-      if (!(tdoa_ || fuse_) || !decode(m) || !take(m.tag_id)) break;
+      if (!decode(m) || !take(m.tag_id)) break;
       if (fuse_) post(Op::kFusePair, c.id, data, size, stable);
       if (tdoa_) {
         ++counts_[kTdoaIndex].in;
@@ -614,7 +617,7 @@ void ReplayHost::process(const std::string& channel, int64_t timestamp, const ui
     }
     case Input::kBleAoa: {
       ble_aoa_t m;
-      if (!(aoa_ || fuse_) || !decode(m) || !take(m.tag_id)) break;
+      if (!decode(m) || !take(m.tag_id)) break;
       if (fuse_) post(Op::kFuseAoa, c.id, data, size, stable);
       if (aoa_) {
         ++counts_[kAoaIndex].in;
@@ -624,7 +627,7 @@ void ReplayHost::process(const std::string& channel, int64_t timestamp, const ui
     }
     case Input::kImu: {
       imu_t m;
-      if (!(pdr_ || ins_ || fuse_) || !decode(m) || !take(m.device_id)) break;
+      if (!decode(m) || !take(m.device_id)) break;
       if (fuse_) post(Op::kFuseImu, c.id, data, size, stable);
       if (pdr_) {
         ++counts_[kPdrIndex].in;
@@ -638,13 +641,17 @@ void ReplayHost::process(const std::string& channel, int64_t timestamp, const ui
     }
     case Input::kBaro: {
       baro_t m;
-      if (!altitude_ || !decode(m) || (!m.is_reference && !take(m.sensor_id))) break;
+      if (!decode(m) || (!m.is_reference && !take(m.sensor_id))) break;
       ++counts_[kAltitudeIndex].in;
       altitude_->on_baro(m);
       break;
     }
+    case Input::kFusePose:
+    case Input::kFuseStep:
+    case Input::kFuseAltitude:
+      post(Op::kFuseFromLog, c.id, data, size, stable);
+      break;
     case Input::kOther:
-      if (c.to_fuse) post(Op::kFuseFromLog, c.id, data, size, stable);
       break;
   }
 }
@@ -702,8 +709,8 @@ std::vector<EstimatorAccount> ReplayHost::accounts() const {
   // Raw receptions, or pairwise differences (UWB_TDOA) when the log had only those.
   if (tdoa_)
     account(kTdoaIndex, kUwbTdoa,
-            tdoa_->pair_stats().pairs_in > 0 && tdoa_->stats().rx_in == 0 ? ch("UWB_TDOA")
-                                                                           : ch(channel::kUwbRx),
+            tdoa_->pair_stats().pairs_in > 0 && tdoa_->stats().rx_in == 0 ? ch(channel::kUwbTdoa)
+                                                                          : ch(channel::kUwbRx),
             *tdoa_);
   if (aoa_) account(kAoaIndex, kAoa, ch(channel::kBleAoa), *aoa_);
   if (pdr_) account(kPdrIndex, kPdr, ch(channel::kImu), *pdr_);

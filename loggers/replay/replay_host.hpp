@@ -153,6 +153,26 @@ class ReplayHost {
   const TagSelector& tag_selector() const { return tags_; }
   // A site came from --site or a SITE message of the log.
   bool has_site() const { return site_applied_; }
+  // The input a channel's events are to the hosted estimators, as process() takes them: kOther
+  // when none of them reads the channel. The kFuse* inputs are ips-fuse's, read from the log
+  // (feed_fuse_from_log) when no hosted estimator regenerates them. The tag of an event is its
+  // message's tag_id, but a kUwbRx event's sender_id, a kImu event's device_id and a kBaro
+  // event's sensor_id; a sync master's kUwbRx and a reference kBaro serve every tag. Depends
+  // only on what the constructor set, so any thread may ask.
+  enum class Input : uint8_t {
+    kOther,
+    kSite,
+    kUwbRange,
+    kUwbRx,
+    kUwbTdoa,
+    kBleAoa,
+    kImu,
+    kBaro,
+    kFusePose,     // pose_t: INS_MODULE, POSE_INS, POSE_TDOA, POSE_AOA
+    kFuseStep,     // step_t
+    kFuseAltitude  // altitude_t
+  };
+  Input input_of(const std::string& channel) const;
   // Names of the estimators hosted, and of every estimator that can be.
   std::vector<std::string> hosted() const;
   static std::vector<std::string> available();
@@ -219,13 +239,11 @@ class ReplayHost {
     post(op, intern(channel), data, size, stable);
   }
   // What the host does with a channel's log events, worked out once per channel name.
-  enum class Input : uint8_t { kOther, kSite, kUwbRange, kUwbRx, kUwbTdoa, kBleAoa, kImu, kBaro };
   struct ChannelInfo {
     uint32_t id = 0;  // interned
     Input input = Input::kOther;
     bool produced = false;  // a hosted estimator regenerates it
     bool to_zones = false;  // the hosted ips-zones reads it from the log
-    bool to_fuse = false;   // the hosted ips-fuse reads it from the log (feed_fuse_from_log)
   };
   const ChannelInfo& classify(const std::string& channel);
   std::unordered_map<std::string, ChannelInfo> channel_info_;

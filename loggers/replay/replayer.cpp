@@ -102,30 +102,6 @@ void Replayer::stop_threads() {
   if (merging_.joinable()) merging_.join();
 }
 
-Replayer::Route Replayer::route_of(const std::string& channel) const {
-  const auto hosted = lanes_.front().host->hosted();
-  const auto has = [&](const char* name) {
-    return std::find(hosted.begin(), hosted.end(), name) != hosted.end();
-  };
-  const bool fuse = has("fuse");
-  const auto is = [&](const char* kind) { return channel == channels_.channel(kind); };
-  if (is(channel::kSite)) return opts_.site ? Route::kNone : Route::kSite;
-  if (is(channel::kUwbRange)) return has("uwb_twr") || fuse ? Route::kRange : Route::kNone;
-  if (is(channel::kUwbRx)) return has("uwb_tdoa") || fuse ? Route::kRx : Route::kNone;
-  if (is("UWB_TDOA")) return has("uwb_tdoa") || fuse ? Route::kPair : Route::kNone;
-  if (is(channel::kBleAoa)) return has("aoa") || fuse ? Route::kAoa : Route::kNone;
-  if (is(channel::kImu)) return has("pdr") || has("ins") || fuse ? Route::kImu : Route::kNone;
-  if (is(channel::kBaro)) return has("altitude") ? Route::kBaro : Route::kNone;
-  // The fusion's other inputs, when the log has them and no lane regenerates them.
-  if (!fuse || lanes_.front().host->produced_channels().count(channel)) return Route::kNone;
-  if (is(channel::kInsModule) || is(channel::kPoseIns) || is(channel::kPoseTdoa) ||
-      is(channel::kPoseAoa))
-    return Route::kPose;
-  if (is(channel::kStep)) return Route::kStep;
-  if (is(channel::kAltitude)) return Route::kAltitude;
-  return Route::kNone;
-}
-
 int32_t Replayer::lane_of_id(const std::string& id) {
   if (non_tags_.count(id)) return kToEveryLane;
   if (!selector_.selects_all() && !selector_.selects(id)) {
@@ -142,7 +118,7 @@ int Replayer::lane_of_tag(std::string_view id, int lanes, int shards) {
   return static_cast<int>(fnv1a64(id) / n % static_cast<uint64_t>(lanes));
 }
 
-int32_t Replayer::lane_of(Route route, const uint8_t* data, size_t size) {
+int32_t Replayer::lane_of(Input input, const uint8_t* data, size_t size) {
   // Decodes the event as Msg, and its lane from the id `id_of` gives ("" for every lane). An
   // event that does not decode goes to the first lane, which counts it once.
   const auto by_id = [&](auto msg, auto&& id_of) -> int32_t {
@@ -150,10 +126,10 @@ int32_t Replayer::lane_of(Route route, const uint8_t* data, size_t size) {
     const std::string* id = id_of(msg);
     return id == nullptr ? kToEveryLane : lane_of_id(*id);
   };
-  switch (route) {
-    case Route::kNone:
+  switch (input) {
+    case Input::kOther:
       return kToNoLane;
-    case Route::kSite: {
+    case Input::kSite: {
       // A new site, valid, reaches every lane; the others change nothing there (the merger
       // counts them as a lane would).
       site_t m;
@@ -168,23 +144,23 @@ int32_t Replayer::lane_of(Route route, const uint8_t* data, size_t size) {
       last_site_yaml_ = m.site_yaml;
       return kToEveryLane;
     }
-    case Route::kRange:
+    case Input::kUwbRange:
       return by_id(uwb_range_t{}, [](const auto& m) { return &m.tag_id; });
-    case Route::kRx:  // a sync master's broadcast serves every tag
+    case Input::kUwbRx:  // a sync master's broadcast serves every tag
       return by_id(uwb_rx_t{}, [](const auto& m) { return m.is_sync ? nullptr : &m.sender_id; });
-    case Route::kPair:
+    case Input::kUwbTdoa:
       return by_id(uwb_tdoa_t{}, [](const auto& m) { return &m.tag_id; });
-    case Route::kAoa:
+    case Input::kBleAoa:
       return by_id(ble_aoa_t{}, [](const auto& m) { return &m.tag_id; });
-    case Route::kImu:
+    case Input::kImu:
       return by_id(imu_t{}, [](const auto& m) { return &m.device_id; });
-    case Route::kBaro:  // as is a reference station's reading
+    case Input::kBaro:  // as is a reference station's reading
       return by_id(baro_t{}, [](const auto& m) { return m.is_reference ? nullptr : &m.sensor_id; });
-    case Route::kPose:
+    case Input::kFusePose:
       return by_id(pose_t{}, [](const auto& m) { return &m.tag_id; });
-    case Route::kStep:
+    case Input::kFuseStep:
       return by_id(step_t{}, [](const auto& m) { return &m.tag_id; });
-    case Route::kAltitude:
+    case Input::kFuseAltitude:
       return by_id(altitude_t{}, [](const auto& m) { return &m.tag_id; });
   }
   return kToNoLane;
@@ -200,7 +176,8 @@ void Replayer::process(const std::string& channel, int64_t timestamp, const uint
   ++events_in_;
   end_timestamp_ = timestamp;
   auto it = routes_.find(channel);
-  if (it == routes_.end()) it = routes_.emplace(channel, route_of(channel)).first;
+  if (it == routes_.end())
+    it = routes_.emplace(channel, lanes_.front().host->input_of(channel)).first;
   Event e{&it->first,
           timestamp,
           stable ? data : nullptr,

@@ -111,22 +111,9 @@ class Replayer {
     uint32_t event = 0;                        // ... and the event in it
     double cpu_s = 0.0;                        // its worker's CPU time while running it
   };
-  // What the dispatcher reads from a channel's events to find their lane.
-  enum class Route : uint8_t {
-    kNone,
-    kSite,
-    kRange,
-    kRx,
-    kPair,
-    kAoa,
-    kImu,
-    kBaro,
-    kPose,
-    kStep,
-    kAltitude
-  };
-  Route route_of(const std::string& channel) const;
-  int32_t lane_of(Route route, const uint8_t* data, size_t size);
+  // The lane of an event (kToEveryLane, kToNoLane), from its input to the lanes' hosts.
+  using Input = ReplayHost::Input;
+  int32_t lane_of(Input input, const uint8_t* data, size_t size);
   int32_t lane_of_id(const std::string& id);
   void submit();
   void worker(size_t index);
@@ -143,7 +130,7 @@ class Replayer {
   std::unique_ptr<ReplayHost> single_;  // no lanes
   std::vector<Lane> lanes_;
   std::unique_ptr<ReplayHost> merger_;             // ips-zones and the sink, behind the lanes
-  std::unordered_map<std::string, Route> routes_;  // keys' addresses are stable: Event::channel
+  std::unordered_map<std::string, Input> routes_;  // keys' addresses are stable: Event::channel
   TagSelector selector_;                           // --tags, --shard
   std::unordered_set<std::string> non_tags_;       // the site's anchors and stations
   std::string last_site_yaml_;
