@@ -197,6 +197,7 @@ DropReasons FuseEstimator::drop_reasons() const {
   d.add(DropReason::kInvalid, s.dropped_invalid);
   d.add(DropReason::kNoReference, s.dropped_relative_height);
   d.add(DropReason::kUnknownAnchor, s.dropped_unknown_anchor);
+  d.add(DropReason::kSurveyRange, s.anchor_pair_ranges);
   d.add(DropReason::kLate, s.dropped_late + s.dropped_imu_late);
   d.add(DropReason::kDuplicate, s.dropped_imu_repeated);
   d.add(DropReason::kReordered, s.dropped_imu_reordered);

@@ -131,6 +131,7 @@ struct FuseStats {
   int64_t dropped_invalid = 0;
   int64_t dropped_relative_height = 0;  // ALTITUDE relative to a lone barometer's start
   int64_t dropped_unknown_anchor = 0;
+  int64_t anchor_pair_ranges = 0;    // UWB_RANGE between two anchors (a survey's), not a tag's
   int64_t dropped_late = 0;          // more than max_delay_s behind the tag's newest
   int64_t dropped_imu_repeated = 0;  // an IMU sample at the time of the previous one (a duplicate)
   // An IMU sample before the previous one: within max_delay_s of it, reordered on the way (a

@@ -19,6 +19,13 @@ constexpr double kMaxRangeM = 1000.0;
 }  // namespace
 
 void FuseEstimator::on_range(const uwb_range_t& m) {
+  // Anchor-to-anchor ranging (ips-uwb-survey's input): neither end is a tag, and no track is
+  // made for the anchor (one ranged by three others would have started and been published).
+  if (site_ && site_->find_anchor(m.tag_id)) {
+    ++stats_.messages_in;
+    ++stats_.anchor_pair_ranges;
+    return;
+  }
   Track* t = track_for(m.tag_id, m.utime, [this, m] { on_range(m); });
   if (!t) return;
   if (!std::isfinite(m.range_m) || m.range_m < 0 || m.range_m > kMaxRangeM) {

@@ -633,6 +633,35 @@ TEST(FuseEstimator, BadInputIsCounted) {
   EXPECT_EQ(est.stats().ignored_other_source, 1);
 }
 
+// Anchors ranging each other (ips-uwb-survey's input) on the bus: neither end is a tag. They were
+// taken as a tag's: a track for "A1" among the tags (and the track cap), its ranges counted as
+// waiting for it to start. Now they are counted as what they are, and no track is made.
+TEST(FuseEstimator, AnchorToAnchorRangesAreNoTagsAndAreCounted) {
+  const Site site = site_with("{id: T1, height_m: 0.1}");
+  int published = 0;
+  FuseEstimator est([&](const pose_t&) { ++published; });
+  est.set_site(site);
+  const Anchor& a1 = site.anchors[0];
+  int64_t sent = 0;
+  for (int k = 0; k < 40; ++k) {
+    for (size_t b = 1; b < site.anchors.size(); ++b) {
+      uwb_range_t r{};
+      r.utime = kT0 + s_to_utime(0.1 * k) + static_cast<utime_t>(b) * 1000;
+      r.tag_id = a1.id;
+      r.anchor_id = site.anchors[b].id;
+      r.range_m = (site.anchors[b].position - a1.position).norm();
+      est.on_range(r);
+      ++sent;
+    }
+  }
+  EXPECT_EQ(published, 0);
+  EXPECT_FALSE(est.filter("A1"));
+  EXPECT_EQ(est.stats().anchor_pair_ranges, sent);
+  EXPECT_EQ(est.drop_reasons().count(DropReason::kSurveyRange), sent);
+  EXPECT_EQ(est.stats().messages_in, sent);
+  EXPECT_EQ(est.stats().waiting_start, 0);
+}
+
 // HEALTH as the live process reports it (core/drop_reasons.hpp DropHealth): its error reports.
 struct HealthProbe {
   struct {
