@@ -227,7 +227,7 @@ int main(int argc, char** argv) {
         which += (which.empty() ? "" : ", ") + channel + " " + std::to_string(n);
       spdlog::info(
           "ips-replay: {} estimates made the same by several lanes for the same input "
-          "written once ({}); the accounts count each lane's",
+          "written once ({}), and counted once",
           host.repeated_estimates(), which);
     }
     if (!host.tag_selector().selects_all())

@@ -62,12 +62,12 @@ ReplayHost::ReplayHost(const ReplayOptions& opts, const CommonOptions& channels,
       ++counts_[kTwrIndex].out;
       emit(out, p);
     });
-    produced_channels_.insert(out);
+    produce(kUwbTwr, out);
     // The per-epoch fixes, when the site asks for them (estimators.uwb_twr.epoch_fixes): not
     // counted as the tracker's estimates.
     const std::string epoch_out = channels_.channel(channel::kPoseUwbEpoch);
     twr_->set_epoch_sink([this, epoch_out](const pose_t& p) { emit(epoch_out, p); });
-    produced_channels_.insert(epoch_out);
+    produce(kUwbTwr, epoch_out);
   }
   if (wanted(kUwbTdoa)) {
     const std::string pose_out = channels_.channel(channel::kPoseTdoa);
@@ -81,8 +81,8 @@ ReplayHost::ReplayHost(const ReplayOptions& opts, const CommonOptions& channels,
           ++counts_[kTdoaIndex].out;
           emit(clock_out, c);
         });
-    produced_channels_.insert(pose_out);
-    produced_channels_.insert(clock_out);
+    produce(kUwbTdoa, pose_out);
+    produce(kUwbTdoa, clock_out);
   }
   if (wanted(kAoa)) {
     const std::string out = channels_.channel(channel::kPoseAoa);
@@ -90,7 +90,7 @@ ReplayHost::ReplayHost(const ReplayOptions& opts, const CommonOptions& channels,
       ++counts_[kAoaIndex].out;
       emit(out, p);
     });
-    produced_channels_.insert(out);
+    produce(kAoa, out);
   }
   if (wanted(kPdr)) {
     const std::string steps = channels_.channel(channel::kStep);
@@ -104,8 +104,8 @@ ReplayHost::ReplayHost(const ReplayOptions& opts, const CommonOptions& channels,
           ++counts_[kPdrIndex].out;
           emit(poses, p);
         });
-    produced_channels_.insert(steps);
-    produced_channels_.insert(poses);
+    produce(kPdr, steps);
+    produce(kPdr, poses);
   }
   if (wanted(kIns)) {
     const std::string out = channels_.channel(channel::kPoseIns);
@@ -113,7 +113,7 @@ ReplayHost::ReplayHost(const ReplayOptions& opts, const CommonOptions& channels,
       ++counts_[kInsIndex].out;
       emit(out, p);
     });
-    produced_channels_.insert(out);
+    produce(kIns, out);
   }
   if (wanted(kAltitude)) {
     const std::string out = channels_.channel(channel::kAltitude);
@@ -122,7 +122,7 @@ ReplayHost::ReplayHost(const ReplayOptions& opts, const CommonOptions& channels,
           ++counts_[kAltitudeIndex].out;
           emit(out, a);
         });
-    produced_channels_.insert(out);
+    produce(kAltitude, out);
   }
   if (wanted(kFuse)) {
     const std::string out = channels_.channel(channel::kPoseFused);
@@ -131,7 +131,7 @@ ReplayHost::ReplayHost(const ReplayOptions& opts, const CommonOptions& channels,
       ++counts_[kFuseIndex].out;
       write(out, p);
     });
-    produced_channels_.insert(out);
+    produce(kFuse, out);
   }
   if (wanted(kZones)) {
     // After the estimators: it watches what they produce (ips-zones on the bus).
@@ -149,8 +149,8 @@ ReplayHost::ReplayHost(const ReplayOptions& opts, const CommonOptions& channels,
           ++counts_[kZonesIndex].out;
           write(alerts, a);
         });
-    produced_channels_.insert(events);
-    produced_channels_.insert(alerts);
+    produce(kZones, events);
+    produce(kZones, alerts);
   }
   produced_channels_.insert(opts_.produced_elsewhere.begin(), opts_.produced_elsewhere.end());
   for (const char* kind : {channel::kInsModule, channel::kPoseIns, channel::kPoseTdoa,
@@ -222,10 +222,10 @@ const ReplayHost::ChannelInfo& ReplayHost::classify(const std::string& channel) 
 
 void ReplayHost::post(Op op, uint32_t ch, const uint8_t* data, size_t size, bool stable) {
   if (!threaded_) {
-    run(Step{op, ch, now_timestamp_, data, 0, size}, data);
+    run(Step{op, ch, now_timestamp_, data, 0, size, shared_input_}, data);
     return;
   }
-  Step s{op, ch, now_timestamp_, stable ? data : nullptr, batch_.bytes.size(), size};
+  Step s{op, ch, now_timestamp_, stable ? data : nullptr, batch_.bytes.size(), size, shared_input_};
   if (!stable && size > 0) batch_.bytes.insert(batch_.bytes.end(), data, data + size);
   batch_.steps.push_back(s);
   if (batch_.steps.size() >= kBatchSteps) submit();
@@ -290,6 +290,7 @@ void ReplayHost::run_batch(const Batch& b) {
 
 void ReplayHost::run(const Step& s, const uint8_t* data) {
   stage_timestamp_ = s.timestamp;
+  stage_shared_ = s.shared;
   const std::string& channel = channel_names_[s.channel];
   // Decodes a message this process encoded or already decoded once: it cannot fail.
   const auto decoded = [&](auto msg) {
@@ -297,7 +298,7 @@ void ReplayHost::run(const Step& s, const uint8_t* data) {
     return msg;
   };
   const auto to_fuse = [&](auto msg, auto&& use) {
-    ++counts_[kFuseIndex].in;
+    count_in(kFuseIndex, stage_shared_);
     use(decoded(std::move(msg)));
   };
   // A first-stage estimator's estimate: written, heard by ips-zones, handed to the fusion.
@@ -386,12 +387,12 @@ template <class Msg>
 void ReplayHost::zones_hear(const std::string& channel, const Msg& msg) {
   if constexpr (std::is_same_v<Msg, pose_t>) {
     if (zones_ && channel == opts_.zones_pose_channel) {
-      ++counts_[kZonesIndex].in;
+      count_in(kZonesIndex, stage_shared_);
       zones_->on_pose(msg);
     }
   } else if constexpr (std::is_same_v<Msg, altitude_t>) {
     if (zones_ && channel == channels_.channel(channel::kAltitude)) {
-      ++counts_[kZonesIndex].in;
+      count_in(kZonesIndex, stage_shared_);
       zones_->on_altitude(msg);
     }
   }
@@ -420,26 +421,26 @@ void ReplayHost::emit(const std::string& channel, const Msg& msg) {
 
 void ReplayHost::feed_fuse(const std::string& channel, const pose_t& m) {
   if (channel == channels_.channel(channel::kPoseIns)) {
-    ++counts_[kFuseIndex].in;
+    count_in(kFuseIndex, stage_shared_);
     fuse_->on_pose_ins(m);
   } else if (channel == channels_.channel(channel::kPoseTdoa)) {
-    ++counts_[kFuseIndex].in;
+    count_in(kFuseIndex, stage_shared_);
     fuse_->on_pose(m, "tdoa");
   } else if (channel == channels_.channel(channel::kPoseAoa)) {
-    ++counts_[kFuseIndex].in;
+    count_in(kFuseIndex, stage_shared_);
     fuse_->on_pose(m, "aoa");
   }
 }
 
 void ReplayHost::feed_fuse(const std::string& channel, const step_t& m) {
   if (channel != channels_.channel(channel::kStep)) return;
-  ++counts_[kFuseIndex].in;
+  count_in(kFuseIndex, stage_shared_);
   fuse_->on_step(m);
 }
 
 void ReplayHost::feed_fuse(const std::string& channel, const altitude_t& m) {
   if (channel != channels_.channel(channel::kAltitude)) return;
-  ++counts_[kFuseIndex].in;
+  count_in(kFuseIndex, stage_shared_);
   fuse_->on_altitude(m);
 }
 
@@ -458,7 +459,7 @@ void ReplayHost::feed_fuse_from_log(const std::string& channel, const uint8_t* d
     }
     if (!stage_take(m.tag_id)) return;
     if (ins_module) {
-      ++counts_[kFuseIndex].in;
+      count_in(kFuseIndex, stage_shared_);
       fuse_->on_ins_module(m);
     } else {
       feed_fuse(channel, m);
@@ -470,7 +471,7 @@ void ReplayHost::feed_fuse_from_log(const std::string& channel, const uint8_t* d
       return;
     }
     if (!stage_take(m.tag_id)) return;
-    ++counts_[kFuseIndex].in;
+    count_in(kFuseIndex, stage_shared_);
     fuse_->on_step(m);
   } else if (channel == channels_.channel(channel::kAltitude)) {
     altitude_t m;
@@ -479,7 +480,7 @@ void ReplayHost::feed_fuse_from_log(const std::string& channel, const uint8_t* d
       return;
     }
     if (!stage_take(m.tag_id)) return;
-    ++counts_[kFuseIndex].in;
+    count_in(kFuseIndex, stage_shared_);
     fuse_->on_altitude(m);
   }
 }
@@ -516,7 +517,7 @@ void ReplayHost::feed_zones_from_log(const std::string& channel, const uint8_t* 
     }
     if constexpr (requires { msg.tag_id; })
       if (!stage_take(msg.tag_id)) return;
-    ++counts_[kZonesIndex].in;
+    count_in(kZonesIndex, stage_shared_);
     use(msg);
   };
   if (channel == opts_.zones_pose_channel) {
@@ -587,7 +588,7 @@ void ReplayHost::process(const std::string& channel, int64_t timestamp, const ui
       uwb_range_t m;
       if (!decode(m) || !take(m.tag_id)) break;
       if (twr_) {
-        ++counts_[kTwrIndex].in;
+        count_in(kTwrIndex, shared_input_);
         twr_->on_range(m);
       }
       if (fuse_) post(Op::kFuseRange, c.id, data, size, stable);
@@ -600,7 +601,7 @@ void ReplayHost::process(const std::string& channel, int64_t timestamp, const ui
       // ips-fuse hears a blink before the POSE_TDOA made of it, as on the bus.
       if (fuse_) post(Op::kFuseRx, c.id, data, size, stable);
       if (tdoa_) {
-        ++counts_[kTdoaIndex].in;
+        count_in(kTdoaIndex, shared_input_);
         tdoa_->on_rx(m);
       }
       break;
@@ -610,7 +611,7 @@ void ReplayHost::process(const std::string& channel, int64_t timestamp, const ui
       if (!decode(m) || !take(m.tag_id)) break;
       if (fuse_) post(Op::kFusePair, c.id, data, size, stable);
       if (tdoa_) {
-        ++counts_[kTdoaIndex].in;
+        count_in(kTdoaIndex, shared_input_);
         tdoa_->on_pair(m);
       }
       break;
@@ -620,7 +621,7 @@ void ReplayHost::process(const std::string& channel, int64_t timestamp, const ui
       if (!decode(m) || !take(m.tag_id)) break;
       if (fuse_) post(Op::kFuseAoa, c.id, data, size, stable);
       if (aoa_) {
-        ++counts_[kAoaIndex].in;
+        count_in(kAoaIndex, shared_input_);
         aoa_->on_event(m);
       }
       break;
@@ -630,11 +631,11 @@ void ReplayHost::process(const std::string& channel, int64_t timestamp, const ui
       if (!decode(m) || !take(m.device_id)) break;
       if (fuse_) post(Op::kFuseImu, c.id, data, size, stable);
       if (pdr_) {
-        ++counts_[kPdrIndex].in;
+        count_in(kPdrIndex, shared_input_);
         pdr_->on_imu(m);
       }
       if (ins_) {
-        ++counts_[kInsIndex].in;
+        count_in(kInsIndex, shared_input_);
         ins_->on_imu(m);
       }
       break;
@@ -642,7 +643,7 @@ void ReplayHost::process(const std::string& channel, int64_t timestamp, const ui
     case Input::kBaro: {
       baro_t m;
       if (!decode(m) || (!m.is_reference && !take(m.sensor_id))) break;
-      ++counts_[kAltitudeIndex].in;
+      count_in(kAltitudeIndex, shared_input_);
       altitude_->on_baro(m);
       break;
     }
@@ -700,6 +701,7 @@ std::vector<EstimatorAccount> ReplayHost::accounts() const {
     a.name = name;
     a.inputs = std::move(inputs);
     a.messages_in = counts_[index].in;
+    a.shared_in = counts_[index].shared_in;
     a.estimates_out = counts_[index].out;
     a.drops = drops;
     describe_account(a, !opts_.only.empty(), site_applied_);

@@ -85,6 +85,7 @@ struct EstimatorAccount {
   std::string name;           // "aoa"
   std::string inputs;         // the channels it reads: "BLE_AOA"
   int64_t messages_in = 0;    // messages handed to it
+  int64_t shared_in = 0;      // of them, those its host shared with other hosts (set_shared_input)
   int64_t estimates_out = 0;  // messages it produced (POSE_*, STEP, CLOCK, ALTITUDE)
   DropReasons drops;
   // "aoa: 7949 BLE_AOA in, 0 estimates out: 7949 no site (the log has no SITE: give --site
@@ -173,6 +174,14 @@ class ReplayHost {
     kFuseAltitude  // altitude_t
   };
   Input input_of(const std::string& channel) const;
+  // The hosted estimator that writes a channel ("uwb_tdoa" for CLOCK), or "" for none.
+  std::string producer_of(const std::string& channel) const {
+    const auto it = producers_.find(channel);
+    return it == producers_.end() ? std::string() : it->second;
+  }
+  // The inputs process() is given from now on are given to other hosts as well (a lane's: a
+  // message every lane takes): the accounts count them in EstimatorAccount::shared_in too.
+  void set_shared_input(bool shared) { shared_input_ = shared; }
   // Names of the estimators hosted, and of every estimator that can be.
   std::vector<std::string> hosted() const;
   static std::vector<std::string> available();
@@ -227,6 +236,7 @@ class ReplayHost {
     int64_t timestamp;    // the log time of the input that caused it
     const uint8_t* data;  // stable bytes, or null: then at `offset` in the batch's bytes
     size_t offset, size;
+    bool shared = false;  // its input was given to other hosts as well (set_shared_input)
   };
   struct Batch {
     std::vector<Step> steps;
@@ -285,7 +295,19 @@ class ReplayHost {
   struct Counts {
     int64_t in = 0;
     int64_t out = 0;
+    int64_t shared_in = 0;  // of `in`, inputs given to other hosts as well
   };
+  void count_in(Hosted index, bool shared) {
+    ++counts_[index].in;
+    if (shared) ++counts_[index].shared_in;
+  }
+  void produce(const char* estimator, const std::string& channel) {
+    produced_channels_.insert(channel);
+    producers_.emplace(channel, estimator);
+  }
+  bool shared_input_ = false;  // set_shared_input(): the first stage's
+  bool stage_shared_ = false;  // the step the second stage runs: its input was shared
+  std::map<std::string, std::string> producers_;  // produced channel -> the hosted estimator
   std::array<Counts, kNumHosted> counts_{};
   bool site_applied_ = false;
   CommonOptions channels_;

@@ -144,8 +144,12 @@ int32_t Replayer::lane_of(Input input, const uint8_t* data, size_t size) {
       last_site_yaml_ = m.site_yaml;
       return kToEveryLane;
     }
-    case Input::kUwbRange:
-      return by_id(uwb_range_t{}, [](const auto& m) { return &m.tag_id; });
+    case Input::kUwbRange: {
+      // A range between two anchors (a survey's) is no tag's: every lane would drop it, so the
+      // first takes it and counts it once.
+      const int32_t lane = by_id(uwb_range_t{}, [](const auto& m) { return &m.tag_id; });
+      return lane == kToEveryLane ? 0 : lane;
+    }
     case Input::kUwbRx:  // a sync master's broadcast serves every tag
       return by_id(uwb_rx_t{}, [](const auto& m) { return m.is_sync ? nullptr : &m.sender_id; });
     case Input::kUwbTdoa:
@@ -304,6 +308,7 @@ void Replayer::run(Job& job, size_t worker_index) {
     for (const uint32_t i : job.lane_events[k]) {
       const Event& e = job.events[i];
       lane.event = i;
+      lane.host->set_shared_input(e.lane == kToEveryLane);
       lane.host->process(*e.channel, e.timestamp, e.data, e.size, true);
     }
     if (job.finish) {
@@ -442,7 +447,9 @@ std::vector<EstimatorAccount> Replayer::accounts() const {
       EstimatorAccount& a = out[i];
       const EstimatorAccount& b = lane[i];
       if (a.messages_in == 0 && b.messages_in > 0) a.inputs = b.inputs;  // a lane that had input
-      a.messages_in += b.messages_in;
+      // An input every lane took is counted once, as one host would count it.
+      a.messages_in += k == 0 ? b.messages_in : b.messages_in - b.shared_in;
+      if (k == 0) a.shared_in = b.shared_in;
       a.estimates_out += b.estimates_out;
       a.drops += b.drops;
       join(a.consistency, b.consistency, k);
@@ -451,6 +458,10 @@ std::vector<EstimatorAccount> Replayer::accounts() const {
       join(a.notes, b.notes, k);
     }
   }
+  // An estimate a later lane repeated was written once, and is counted once.
+  for (const auto& [channel, n] : repeated_by_channel_)
+    for (auto& a : out)
+      if (a.name == lanes_.front().host->producer_of(channel)) a.estimates_out -= n;
   for (auto& a : out) describe_account(a, !opts_.only.empty(), merger_->has_site());
   for (auto& a : merger_->accounts()) out.push_back(std::move(a));  // ips-zones
   return out;
