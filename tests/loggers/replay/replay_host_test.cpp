@@ -224,6 +224,25 @@ TEST(Replayer, OneLaneIsTheWholeReplay) {
   EXPECT_TRUE(lanes == whole);
 }
 
+// One tag in several lanes (a recording of one tag, as every real one of docs/real-data.md): its
+// lane is one instance, the others hear only what serves every tag (the sync master, the
+// reference barometer) and write nothing twice, so the bytes are one instance's.
+TEST(Replayer, OneTagInSeveralLanesIsOneInstance) {
+  ReplayOptions ro;
+  ro.lanes = 4;
+  ro.threads = 2;
+  int64_t repeated = 0;
+  const auto whole = replay({}, 20, {}, "lab", {}, 1);
+  const auto lanes =
+      replay(ro, 20, {}, "lab", [&](const Replayer& h) { repeated = h.repeated_estimates(); }, 1);
+  EXPECT_GT(repeated, 0);  // the other lanes' CLOCK, written once
+  const auto n = events_by_channel(whole);
+  for (const char* estimate : {"POSE_UWB", "POSE_TDOA", "POSE_AOA", "ALTITUDE", "POSE_FUSED"})
+    EXPECT_GT(n.count(estimate) ? n.at(estimate) : 0, 100) << estimate;
+  ASSERT_EQ(lanes.size(), whole.size());
+  EXPECT_TRUE(lanes == whole);
+}
+
 // With L lanes each tag's estimates are, byte for byte, those of the replay of its shard alone
 // (--shard K/L): a lane is a shard. Every input is written once, an anchor's CLOCK that every
 // lane makes the same is written once, and the accounts count each input as one host does (an
