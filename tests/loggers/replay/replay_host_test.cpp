@@ -209,38 +209,38 @@ TEST(Replayer, LanesGiveTheSameBytesOnAnyNumberOfThreads) {
   }
 }
 
+// Replays `walkers` tags of the lab in `lanes` lanes on two threads and without lanes; expects
+// the same bytes. Returns the replay without lanes; `repeated`: estimates written once.
+std::vector<Out> expect_lanes_are_one_instance(int lanes, int walkers, int64_t& repeated) {
+  ReplayOptions ro;
+  ro.lanes = lanes;
+  ro.threads = 2;
+  const auto whole = replay({}, 20, {}, "lab", {}, walkers);
+  const auto laned = replay(
+      ro, 20, {}, "lab", [&](const Replayer& h) { repeated = h.repeated_estimates(); }, walkers);
+  EXPECT_EQ(laned.size(), whole.size());
+  EXPECT_TRUE(laned == whole);
+  return whole;
+}
+
 // One lane is the replay without lanes, byte for byte: the merge puts every input and estimate
 // where one host does, and ips-zones (behind the lanes) hears the poses in the same order.
 TEST(Replayer, OneLaneIsTheWholeReplay) {
-  ReplayOptions lane;
-  lane.lanes = 1;
-  lane.threads = 2;
-  int64_t zone_events = 0;
-  const auto whole = replay({}, 20, {}, "lab", {}, 3);
-  const auto lanes = replay(lane, 20, {}, "lab", {}, 3);
-  for (const auto& o : whole) zone_events += o.channel == "ZONE_EVENT";
-  ASSERT_GT(zone_events, 0);
-  ASSERT_EQ(lanes.size(), whole.size());
-  EXPECT_TRUE(lanes == whole);
+  int64_t repeated = 0;
+  const auto whole = expect_lanes_are_one_instance(1, 3, repeated);
+  EXPECT_GT(events_by_channel(whole).at("ZONE_EVENT"), 0);
+  EXPECT_EQ(repeated, 0);
 }
 
 // One tag in several lanes (a recording of one tag, as every real one of docs/real-data.md): its
 // lane is one instance, the others hear only what serves every tag (the sync master, the
 // reference barometer) and write nothing twice, so the bytes are one instance's.
 TEST(Replayer, OneTagInSeveralLanesIsOneInstance) {
-  ReplayOptions ro;
-  ro.lanes = 4;
-  ro.threads = 2;
   int64_t repeated = 0;
-  const auto whole = replay({}, 20, {}, "lab", {}, 1);
-  const auto lanes =
-      replay(ro, 20, {}, "lab", [&](const Replayer& h) { repeated = h.repeated_estimates(); }, 1);
+  const auto n = events_by_channel(expect_lanes_are_one_instance(4, 1, repeated));
   EXPECT_GT(repeated, 0);  // the other lanes' CLOCK, written once
-  const auto n = events_by_channel(whole);
   for (const char* estimate : {"POSE_UWB", "POSE_TDOA", "POSE_AOA", "ALTITUDE", "POSE_FUSED"})
     EXPECT_GT(n.count(estimate) ? n.at(estimate) : 0, 100) << estimate;
-  ASSERT_EQ(lanes.size(), whole.size());
-  EXPECT_TRUE(lanes == whole);
 }
 
 // With L lanes each tag's estimates are, byte for byte, those of the replay of its shard alone
