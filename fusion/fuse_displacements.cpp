@@ -113,8 +113,10 @@ void FuseEstimator::on_dead_reckoning(const pose_t& m, DisplacementSource src, u
   if (!accept_displacement(m.tag_id, *t, src)) return;
   const Eigen::Vector3d p(m.position[0], m.position[1], m.position[2]);
   if (!t->have_last_dr || m.utime <= t->last_dr_t) {
-    if (t->have_last_dr) {
-      ++stats_.dropped_invalid;  // not after the previous one
+    if (t->have_last_dr) {  // not after the previous one: a copy, reordered, or late
+      count_out_of_turn(m.utime, t->last_dr_t, s_to_utime(params_.max_delay_s),
+                        stats_.dropped_dr_repeated, stats_.dropped_dr_reordered,
+                        stats_.dropped_dr_late);
       return;
     }
     t->have_last_dr = true;
@@ -205,8 +207,10 @@ void FuseEstimator::on_step(const step_t& m) {
                          : m.utime - (std::isfinite(m.cadence_hz) && m.cadence_hz > 0.3
                                           ? s_to_utime(1.0 / m.cadence_hz)
                                           : s_to_utime(0.5));
-  if (t->have_last_dr && m.utime <= t->last_dr_t) {
-    ++stats_.dropped_invalid;
+  if (t->have_last_dr && m.utime <= t->last_dr_t) {  // a copy, reordered, or late
+    count_out_of_turn(m.utime, t->last_dr_t, s_to_utime(params_.max_delay_s),
+                      stats_.dropped_dr_repeated, stats_.dropped_dr_reordered,
+                      stats_.dropped_dr_late);
     return;
   }
   t->have_last_dr = true;

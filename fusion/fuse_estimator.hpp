@@ -139,6 +139,13 @@ struct FuseStats {
   // late.
   int64_t dropped_imu_reordered = 0;
   int64_t dropped_imu_late = 0;
+  // The same for a dead-reckoning source's poses and steps (INS_MODULE, POSE_INS, STEP): one at
+  // the time of the previous one is a copy (a LAN repeats datagrams; it was counted invalid and
+  // kept ips-fuse degraded in the soak), one before it within max_delay_s reordered (the next
+  // one's displacement covers it), further back late.
+  int64_t dropped_dr_repeated = 0;
+  int64_t dropped_dr_reordered = 0;
+  int64_t dropped_dr_late = 0;
   int64_t dropped_no_site = 0;
   int64_t dropped_too_many_tags = 0;
   // Displacements of a tag's other dead-reckoning sources (one is used per tag: the first heard,

@@ -275,7 +275,14 @@ void TdoaEstimator::on_rx(const uwb_rx_t& m) {
   }
   const utime_t window = s_to_utime(params_.epoch_window_s);
   if (t.has_closed && m.seq == t.closed_seq && std::llabs(m.utime - t.closed_utime) <= window) {
-    ++stats_.dropped_late;  // a straggler of a blink already processed
+    // An anchor's report of a blink already processed: that anchor's again is a copy (a LAN
+    // duplicates datagrams: routine); another anchor's is a straggler, too late for it.
+    const int a = clocks_.anchor_index(m.anchor_id);
+    if (a < 64 && (t.closed_anchors >> a & 1U) != 0) {
+      ++stats_.dropped_duplicate;
+    } else {
+      ++stats_.dropped_late;
+    }
     return;
   }
   // A report of another blink, or of this seq long after (a seq reused), closes the open one.
@@ -325,6 +332,9 @@ void TdoaEstimator::close_blink(const std::string& tag_id, Track& t) {
   t.has_closed = true;
   t.closed_seq = t.blink.seq;
   t.closed_utime = t.blink.utime;
+  t.closed_anchors = 0;
+  for (const auto& r : t.blink.rx)
+    if (r.anchor >= 0 && r.anchor < 64) t.closed_anchors |= uint64_t{1} << r.anchor;
   process(tag_id, t, t.blink);
 }
 

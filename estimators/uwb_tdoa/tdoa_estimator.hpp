@@ -88,7 +88,7 @@ struct TdoaStats {
   int64_t dropped_unknown_anchor = 0;  // not an enabled uwb_tdoa anchor of the site
   int64_t dropped_no_anchors = 0;      // the site has no enabled uwb_tdoa anchor at all
   int64_t dropped_no_site = 0;
-  int64_t dropped_late = 0;            // behind the tag's newest report, or of a closed blink
+  int64_t dropped_late = 0;  // behind the tag's newest report, or a new anchor's of a closed blink
   int64_t dropped_duplicate = 0;       // a second report of one blink from one anchor
   int64_t time_resets = 0;             // a tag's time went back by more than max_coast_s
   int64_t dropped_too_many_tags = 0;   // a new tag id while max_tags tracks are active
@@ -166,6 +166,8 @@ class TdoaEstimator {
     bool has_closed = false;
     int32_t closed_seq = 0;  // the last blink processed, to drop its stragglers
     utime_t closed_utime = 0;
+    uint64_t closed_anchors =
+        0;  // the anchors (index < 64) that reported it: a copy is no straggler
   };
   // One anchor's reception converted to master time, in metres of light travel.
   struct Arrival {

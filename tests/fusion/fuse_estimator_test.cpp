@@ -662,6 +662,36 @@ TEST(FuseEstimator, AnchorToAnchorRangesAreNoTagsAndAreCounted) {
   EXPECT_EQ(est.stats().waiting_start, 0);
 }
 
+// A LAN repeats and reorders datagrams (the soak's switch does): a dead-reckoning pose or step at
+// the time of the previous one is a copy, one just before it reordered, both routine; one more
+// than max_delay_s back is late. A copy was counted invalid, a fault that kept ips-fuse degraded.
+TEST(FuseEstimator, RepeatedAndReorderedDeadReckoningIsRoutine) {
+  FuseEstimator est([](const pose_t&) {});
+  est.set_site(site_with("{id: T1, height_m: 0.1}"));
+  const auto ins_at = [&](utime_t t) {
+    pose_t p{};
+    p.utime = t;
+    p.tag_id = "T1";
+    for (double& c : p.position_cov) c = kNaN;
+    est.on_ins_module(p);
+  };
+  ins_at(kT0);
+  ins_at(kT0 + 500'000);
+  ins_at(kT0 + 500'000);  // a copy
+  ins_at(kT0 + 400'000);  // reordered, within max_delay_s
+  ins_at(kT0 + 600'000);
+  ins_at(kT0 + 1'600'000);
+  ins_at(kT0 + 400'000);  // 1.2 s behind the previous: late
+  EXPECT_EQ(est.stats().dropped_dr_repeated, 1);
+  EXPECT_EQ(est.stats().dropped_dr_reordered, 1);
+  EXPECT_EQ(est.stats().dropped_dr_late, 1);
+  EXPECT_EQ(est.stats().dropped_invalid, 0);
+  const DropReasons d = est.drop_reasons();
+  EXPECT_EQ(d.count(DropReason::kDuplicate), 1);
+  EXPECT_EQ(d.count(DropReason::kReordered), 1);
+  EXPECT_EQ(d.faults(), 1);  // only the late one
+}
+
 // HEALTH as the live process reports it (core/drop_reasons.hpp DropHealth): its error reports.
 struct HealthProbe {
   struct {
