@@ -103,6 +103,11 @@ std::string FuseEstimator::run_notes() const {
   return s;
 }
 
+void FuseEstimator::count_dr_out_of_turn(const Track& t, utime_t utime) {
+  count_out_of_turn(utime, t.last_dr_t, s_to_utime(params_.max_delay_s), stats_.dropped_dr_repeated,
+                    stats_.dropped_dr_reordered, stats_.dropped_dr_late);
+}
+
 void FuseEstimator::on_dead_reckoning(const pose_t& m, DisplacementSource src, uint32_t bit) {
   Track* t = track_for(m.tag_id, m.utime, [this, m, src, bit] { on_dead_reckoning(m, src, bit); });
   if (!t) return;
@@ -114,9 +119,7 @@ void FuseEstimator::on_dead_reckoning(const pose_t& m, DisplacementSource src, u
   const Eigen::Vector3d p(m.position[0], m.position[1], m.position[2]);
   if (!t->have_last_dr || m.utime <= t->last_dr_t) {
     if (t->have_last_dr) {  // not after the previous one: a copy, reordered, or late
-      count_out_of_turn(m.utime, t->last_dr_t, s_to_utime(params_.max_delay_s),
-                        stats_.dropped_dr_repeated, stats_.dropped_dr_reordered,
-                        stats_.dropped_dr_late);
+      count_dr_out_of_turn(*t, m.utime);
       return;
     }
     t->have_last_dr = true;
@@ -208,9 +211,7 @@ void FuseEstimator::on_step(const step_t& m) {
                                           ? s_to_utime(1.0 / m.cadence_hz)
                                           : s_to_utime(0.5));
   if (t->have_last_dr && m.utime <= t->last_dr_t) {  // a copy, reordered, or late
-    count_out_of_turn(m.utime, t->last_dr_t, s_to_utime(params_.max_delay_s),
-                      stats_.dropped_dr_repeated, stats_.dropped_dr_reordered,
-                      stats_.dropped_dr_late);
+    count_dr_out_of_turn(*t, m.utime);
     return;
   }
   t->have_last_dr = true;

@@ -354,6 +354,9 @@ class FuseEstimator {
   // Time went back for the tag: its track starts afresh (flagged REINITIALISED when it does).
   void restart_track(const std::string& tag_id);
   Track* find_or_add_track(const std::string& tag_id, utime_t t);
+  // A dead-reckoning pose or step at or before the tag's previous one: counted as a copy,
+  // reordered or late (stats_.dropped_dr_*).
+  void count_dr_out_of_turn(const Track& t, utime_t utime);
   bool planar_for(const std::string& tag_id) const;
   double tag_height(const std::string& tag_id) const;
   void add(const std::string& tag_id, Track& t, Measurement m);

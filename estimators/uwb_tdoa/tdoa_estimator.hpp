@@ -166,8 +166,8 @@ class TdoaEstimator {
     bool has_closed = false;
     int32_t closed_seq = 0;  // the last blink processed, to drop its stragglers
     utime_t closed_utime = 0;
-    uint64_t closed_anchors =
-        0;  // the anchors (index < 64) that reported it: a copy is no straggler
+    // The anchors (index < 64) that reported it: a copy of their reports is no straggler.
+    uint64_t closed_anchors = 0;
   };
   // One anchor's reception converted to master time, in metres of light travel.
   struct Arrival {

@@ -445,9 +445,8 @@ void ReplayHost::feed_fuse(const std::string& channel, const altitude_t& m) {
 }
 
 void ReplayHost::feed_fuse_from_log(const std::string& channel, const uint8_t* data, size_t size) {
-  // The channels are the live ips-fuse's; an input a hosted estimator regenerates reached the
-  // fusion through emit() already, and its log events must not reach it a second time.
-  if (produced_channels_.count(channel)) return;
+  // The channels are the live ips-fuse's. An input a hosted estimator regenerates reaches the
+  // fusion through emit(), never from here: input_of() does not make its log events kFuse*.
   const bool ins_module = channel == channels_.channel(channel::kInsModule);
   if (ins_module || channel == channels_.channel(channel::kPoseIns) ||
       channel == channels_.channel(channel::kPoseTdoa) ||
