@@ -199,7 +199,8 @@ DropReasons FuseEstimator::drop_reasons() const {
   d.add(DropReason::kUnknownAnchor, s.dropped_unknown_anchor);
   d.add(DropReason::kSurveyRange, s.anchor_pair_ranges);
   d.add(DropReason::kLate, s.dropped_late + s.dropped_imu_late + s.dropped_dr_late);
-  d.add(DropReason::kDuplicate, s.dropped_imu_repeated + s.dropped_dr_repeated);
+  d.add(DropReason::kDuplicate,
+        s.dropped_imu_repeated + s.dropped_dr_repeated + s.dropped_range_repeated);
   d.add(DropReason::kReordered, s.dropped_imu_reordered + s.dropped_dr_reordered);
   d.add(DropReason::kTimeJump, guard_.dropped());
   d.add(DropReason::kTooManyTags, s.dropped_too_many_tags);

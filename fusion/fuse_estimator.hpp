@@ -42,10 +42,11 @@
 #include <variant>
 #include <vector>
 
+#include "core/consistency.hpp"
 #include "core/drop_reasons.hpp"
 #include "core/pose_tally.hpp"
+#include "core/repeat_filter.hpp"
 #include "core/site.hpp"
-#include "core/consistency.hpp"
 #include "core/time_guard.hpp"
 #include "estimators/aoa/aoa_estimator.hpp"
 #include "estimators/uwb_tdoa/tdoa_estimator.hpp"
@@ -133,6 +134,7 @@ struct FuseStats {
   int64_t dropped_unknown_anchor = 0;
   int64_t anchor_pair_ranges = 0;    // UWB_RANGE between two anchors (a survey's), not a tag's
   int64_t dropped_late = 0;          // more than max_delay_s behind the tag's newest
+  int64_t dropped_range_repeated = 0;  // a copy of a range already taken (core/repeat_filter.hpp)
   int64_t dropped_imu_repeated = 0;  // an IMU sample at the time of the previous one (a duplicate)
   // An IMU sample before the previous one: within max_delay_s of it, reordered on the way (a
   // LAN does that now and then; the next sample's interval covers it, routine); further back,
@@ -312,6 +314,7 @@ class FuseEstimator {
     // The last ranges: a multilateration start is waited for from them, and a running track
     // checked against them.
     std::deque<Measurement> recent_ranges;
+    RecentRepeats range_repeats;          // the last ranges' keys, to know a copy
     utime_t waiting_since = 0;            // the first range of the wait (0: not waiting)
     int gated_since_check = 0;            // ranges gated since the last check_against_ranges
     utime_t last_lost_check = 0;

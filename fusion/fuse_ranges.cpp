@@ -41,6 +41,11 @@ void FuseEstimator::on_range(const uwb_range_t& m) {
   r.kind = Measurement::Kind::kRange;
   r.t = m.utime;
   r.anchor = static_cast<int>(a - site_->anchors.data());
+  // A copy of a range already taken (a LAN's repeated datagram) would be fused twice.
+  if (t->range_repeats.repeated(repeat_key(m.utime, m.seq, r.anchor, m.range_m))) {
+    ++stats_.dropped_range_repeated;
+    return;
+  }
   if (!t->offsets_set) {  // the prior and the configured scales: as ips-uwb-twr's
     t->offsets = uwb_twr::initial_offsets(radio_, m.tag_id, site_->anchors);
     t->offsets_set = true;

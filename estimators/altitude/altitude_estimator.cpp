@@ -1,11 +1,13 @@
 #include "estimators/altitude/altitude_estimator.hpp"
 
+#include <bit>
 #include <cmath>
 #include <cstdio>
 #include <limits>
 #include <tuple>
 
 #include "core/barometric.hpp"
+#include "core/repeat_filter.hpp"
 #include "core/text_escape.hpp"
 #include "estimators/altitude/models/baro_height.hpp"
 
@@ -178,7 +180,8 @@ void AltitudeEstimator::set_site(const Site& site) {
               (params_.mode == "auto" && site.baro_stations.empty() && params_.reference.empty());
 }
 
-utime_t AltitudeEstimator::reading_time(const std::string& sensor_id, utime_t stamp) {
+utime_t AltitudeEstimator::reading_time(const std::string& sensor_id, utime_t stamp,
+                                        uint64_t content) {
   auto found = timing_.find(sensor_id);
   if (found == timing_.end()) {
     if (timing_.size() >= 2 * static_cast<size_t>(params_.max_tags)) return stamp;
@@ -186,10 +189,13 @@ utime_t AltitudeEstimator::reading_time(const std::string& sensor_id, utime_t st
   }
   Timing& tm = found->second;
   if (tm.distinct == 0) {
-    tm = {stamp, stamp, stamp, 1};
+    tm = {stamp, stamp, stamp, 1, content};
     return stamp;
   }
   if (stamp < tm.last_stamp) return 0;
+  // Lines read at once share a stamp, but not all their values (a copy does).
+  if (stamp == tm.last_stamp && content == tm.last_content) return kCopyOfPrevious;
+  tm.last_content = content;
   // The sensor's period: configured, else its stamps' span over their count (a burst of N
   // lines read at once counts N readings), else 1 ms until a second of stamps is known.
   double period_s = 1e-3;
@@ -228,7 +234,14 @@ void AltitudeEstimator::on_baro(const baro_t& m) {
     --stats_.readings_in;  // counted when handed over again, or dropped as a time jump
     return;
   }
-  const utime_t t = reading_time(m.sensor_id, m.utime);
+  const uint64_t content =
+      repeat_key(m.is_reference ? 1 : 0, std::bit_cast<int64_t>(m.temperature_c),
+                 std::bit_cast<int64_t>(m.humidity_pct), m.pressure_pa);
+  const utime_t t = reading_time(m.sensor_id, m.utime, content);
+  if (t == kCopyOfPrevious) {
+    ++stats_.dropped_duplicate;
+    return;
+  }
   if (t == 0) {
     ++stats_.dropped_out_of_order;
     return;

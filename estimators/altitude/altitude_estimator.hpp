@@ -107,6 +107,7 @@ struct AltitudeStats {
   int64_t restarts = 0;  // after max_rejections or a gap
   int64_t dropped_invalid = 0;       // no id, implausible time, pressure, temperature or humidity
   int64_t dropped_out_of_order = 0;  // not after the same sensor's previous reading
+  int64_t dropped_duplicate = 0;     // the previous reading again, its stamp and values alike
   int64_t dropped_no_site = 0;
   int64_t dropped_too_many_tags = 0;
   int64_t dropped_reference_without_height = 0;  // neither known_height_m nor a site station
@@ -124,6 +125,7 @@ struct AltitudeStats {
     d.add(DropReason::kNoSite, dropped_no_site);
     d.add(DropReason::kInvalid, dropped_invalid);
     d.add(DropReason::kLate, dropped_out_of_order);
+    d.add(DropReason::kDuplicate, dropped_duplicate);
     d.add(DropReason::kTooManyTags, dropped_too_many_tags);
     d.add(DropReason::kReferenceWithoutHeight, dropped_reference_without_height);
     d.add(DropReason::kNoReference, dropped_no_reference);
@@ -212,6 +214,7 @@ class AltitudeEstimator {
   struct Timing {
     utime_t first_stamp = 0, last_stamp = 0, last_time = 0;
     int64_t distinct = 0;  // readings with a stamp of their own
+    uint64_t last_content = 0;  // the previous reading's values (repeat_key), to know a copy
   };
   struct Station {
     ReferenceSeries series;
@@ -219,8 +222,10 @@ class AltitudeEstimator {
   };
 
   // The time of a reading: its stamp, or, when it shares its sensor's previous stamp (several
-  // lines read at once), the previous reading's time plus one period. 0: out of order.
-  utime_t reading_time(const std::string& sensor_id, utime_t stamp);
+  // lines read at once), the previous reading's time plus one period. 0: out of order;
+  // kCopyOfPrevious: the previous reading again, stamp and values (`content`), a LAN's copy.
+  static constexpr utime_t kCopyOfPrevious = -1;
+  utime_t reading_time(const std::string& sensor_id, utime_t stamp, uint64_t content);
   void accept(const baro_t& m);  // a valid reading at its (possibly spread) time
   void on_reference(const baro_t& m, double pressure_pa);
   void on_tag(const baro_t& m, double pressure_pa);

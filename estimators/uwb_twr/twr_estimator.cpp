@@ -189,6 +189,12 @@ void TwrEstimator::on_range(const uwb_range_t& m) {
     t.bias = initial_offsets(params_, m.tag_id, site_->anchors);
   }
   const auto anchor_index = static_cast<size_t>(anchor - site_->anchors.data());
+  // A copy of a range already taken (a LAN's repeated datagram) would be fused twice.
+  if (t.repeats.repeated(
+          repeat_key(m.utime, m.seq, static_cast<int64_t>(anchor_index), m.range_m))) {
+    ++stats_.dropped_duplicate;
+    return;
+  }
   if (t.newest_utime != 0) {
     const utime_t behind = t.newest_utime - m.utime;
     if (behind > s_to_utime(params_.max_coast_s)) {
@@ -203,6 +209,7 @@ void TwrEstimator::on_range(const uwb_range_t& m) {
       fresh.cycle_s = t.cycle_s;
       fresh.planar = t.planar;
       fresh.height_m = t.height_m;
+      fresh.repeats = t.repeats;
       t = std::move(fresh);
     } else if (behind > s_to_utime(params_.reorder_tolerance_s)) {
       ++stats_.dropped_late;

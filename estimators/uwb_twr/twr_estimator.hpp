@@ -17,12 +17,13 @@
 #include <string>
 #include <vector>
 
-#include "core/multilateration.hpp"
-#include "core/pose_tally.hpp"
-#include "core/site.hpp"
+#include "core/consistency.hpp"
 #include "core/cv_filter.hpp"
 #include "core/drop_reasons.hpp"
-#include "core/consistency.hpp"
+#include "core/multilateration.hpp"
+#include "core/pose_tally.hpp"
+#include "core/repeat_filter.hpp"
+#include "core/site.hpp"
 #include "core/time_guard.hpp"
 #include "estimators/uwb_twr/models/range_bias.hpp"
 #include "estimators/uwb_twr/models/uwb_range.hpp"
@@ -114,6 +115,7 @@ struct TwrStats {
   int64_t dropped_no_site = 0;
   int64_t dropped_invalid = 0;         // NaN, negative or absurd range, or implausible utime
   int64_t dropped_late = 0;            // older than the tag's newest range by reorder_tolerance_s
+  int64_t dropped_duplicate = 0;       // a copy of a range already taken (core/repeat_filter.hpp)
   int64_t time_resets = 0;             // older by more than max_coast_s: track restarted
   int64_t dropped_too_many_tags = 0;   // a new tag id while max_tags tracks are active
   int64_t anchor_pair_ranges = 0;      // tag_id is an anchor of the site: survey input, not a tag
@@ -131,6 +133,7 @@ struct TwrStats {
     d.add(DropReason::kUnknownAnchor, dropped_unknown_anchor);
     d.add(DropReason::kInvalid, dropped_invalid);
     d.add(DropReason::kLate, dropped_late);
+    d.add(DropReason::kDuplicate, dropped_duplicate);
     d.add(DropReason::kTooManyTags, dropped_too_many_tags);
     d.add(DropReason::kInitialising, ranges_initialising);
     d.add(DropReason::kGated, rejected_gate);
@@ -191,6 +194,7 @@ class TwrEstimator {
     utime_t last_epoch_fix_utime = 0;
     utime_t last_bias_utime = 0;  // the last epoch the offsets learned from
     bool check_fix = false;
+    RecentRepeats repeats;  // the tag's last ranges, to know a copy
   };
   // The epoch: at least epoch_window_s, and a round of the tag's anchors (radios that range one
   // anchor at a time, e.g. every 0.13 s in turn, take 0.5 s to hear four).

@@ -662,6 +662,56 @@ TEST(FuseEstimator, AnchorToAnchorRangesAreNoTagsAndAreCounted) {
   EXPECT_EQ(est.stats().waiting_start, 0);
 }
 
+// A LAN repeats datagrams: a copy of a range would be fused twice, as if the filter were twice as
+// sure of it. Every range delivered twice gives the poses of every range once; two different
+// ranges stamped in the same microsecond (a driver that stamps a read's lines alike) are both used.
+TEST(FuseEstimator, ACopiedRangeIsADuplicateNotASecondRange) {
+  const Site site = site_with("{id: T1, height_m: 0.1}", "{range_sigma_m: 0.3}");
+  const auto in = inputs(site, 20.0, -0.2, 0.3, 11);
+  std::vector<pose_t> once_out, twice_out;
+  FuseEstimator once([&](const pose_t& p) { once_out.push_back(p); });
+  FuseEstimator twice([&](const pose_t& p) { twice_out.push_back(p); });
+  once.set_site(site);
+  twice.set_site(site);
+  int64_t copies = 0;
+  for (const auto& i : in) {
+    feed(once, i);
+    feed(twice, i);
+    if (i.kind == 0) {
+      feed(twice, i);
+      ++copies;
+    }
+  }
+  ASSERT_GT(copies, 100);
+  EXPECT_EQ(twice.stats().dropped_range_repeated, copies);
+  EXPECT_EQ(twice.drop_reasons().count(DropReason::kDuplicate), copies);
+  EXPECT_EQ(once.stats().dropped_range_repeated, 0);
+  EXPECT_EQ(twice.stats().ranges_used, once.stats().ranges_used);
+  ASSERT_EQ(twice_out.size(), once_out.size());
+  ASSERT_FALSE(once_out.empty());
+  for (size_t k = 0; k < once_out.size(); ++k)
+    for (int c = 0; c < 3; ++c) ASSERT_EQ(twice_out[k].position[c], once_out[k].position[c]) << k;
+
+  // The same stamp and anchor, another sequence number or another value: not a copy.
+  const Input& last = in.back();
+  uwb_range_t r{};
+  r.utime = last.t + 100'000;
+  r.tag_id = "T1";
+  r.anchor_id = "A1";
+  r.range_m = 5.0;
+  r.seq = 7;
+  once.on_range(r);
+  r.seq = 8;
+  once.on_range(r);
+  r.range_m = 5.01;
+  once.on_range(r);
+  EXPECT_EQ(once.stats().dropped_range_repeated, 0);
+  r.seq = 8;
+  r.range_m = 5.0;
+  once.on_range(r);  // the second one again
+  EXPECT_EQ(once.stats().dropped_range_repeated, 1);
+}
+
 // A LAN repeats and reorders datagrams (the soak's switch does): a dead-reckoning pose or step at
 // the time of the previous one is a copy, one just before it reordered, both routine; one more
 // than max_delay_s back is late. A copy was counted invalid, a fault that kept ips-fuse degraded.

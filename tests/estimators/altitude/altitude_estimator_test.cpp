@@ -279,11 +279,46 @@ TEST(AltitudeEstimator, BadReadingsAreCountedNeverUsed) {
   f.est.on_baro(reading("T1", -1, 100000.0));
   EXPECT_EQ(f.est.stats().dropped_invalid, 10);
   f.est.on_baro(reading("T1", kT0 + 10, 100000.0));
-  f.est.on_baro(reading("T1", kT0 + 10, 100000.0));  // the same stamp: spread, not dropped
+  f.est.on_baro(reading("T1", kT0 + 10, 100000.1));  // the same stamp: spread, not dropped
   f.est.on_baro(reading("T1", kT0 + 5, 100000.0));
   EXPECT_EQ(f.est.stats().dropped_out_of_order, 1);
   EXPECT_EQ(f.est.stats().retimed, 1);
+  EXPECT_EQ(f.est.stats().dropped_duplicate, 0);
   EXPECT_TRUE(f.out.empty());
+}
+
+// A LAN repeats datagrams: the previous reading again (its stamp and values) is a copy, counted as
+// a duplicate (routine), not a second reading spread at the sensor's rate. Every reading delivered
+// twice gives the altitudes of every reading once.
+TEST(AltitudeEstimator, ACopiedReadingIsADuplicateNotASecondReading) {
+  Fixture once, twice;
+  once.est.set_site(site_with());
+  twice.est.set_site(site_with());
+  Air air;
+  int copies = 0;
+  for (int i = 0; i < 100; ++i) {
+    const utime_t t = kT0 + ms(100 * i);
+    const baro_t ref = reading("B1", t, 100900.0 - i * 0.01, 21.0, true, 2.4);
+    const baro_t tag = reading("T1", t + ms(40), air.at(100900.0 - i * 0.01, 2.4, 1.0 + 0.001 * i));
+    for (const baro_t& m : {ref, tag}) {
+      once.est.on_baro(m);
+      twice.est.on_baro(m);
+      twice.est.on_baro(m);
+      ++copies;
+    }
+  }
+  once.est.finish();
+  twice.est.finish();
+  EXPECT_EQ(twice.est.stats().dropped_duplicate, copies);
+  EXPECT_EQ(twice.est.drop_reasons().count(DropReason::kDuplicate), copies);
+  EXPECT_EQ(twice.est.stats().retimed, 0);
+  EXPECT_EQ(once.est.stats().dropped_duplicate, 0);
+  ASSERT_GT(once.out.size(), 90u);
+  ASSERT_EQ(twice.out.size(), once.out.size());
+  for (size_t k = 0; k < once.out.size(); ++k) {
+    EXPECT_EQ(twice.out[k].utime, once.out[k].utime) << k;
+    EXPECT_EQ(twice.out[k].height_m, once.out[k].height_m) << k;
+  }
 }
 
 TEST(AltitudeEstimator, TagsAndStationsAreBoundedByMaxTags) {

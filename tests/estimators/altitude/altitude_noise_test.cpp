@@ -145,12 +145,13 @@ TEST(AltitudeNoise, LearningTakesTheSensorsNoiseAndTheSigmaCoversTheErrors) {
 TEST(AltitudeNoise, ReadingsSharingOneStampAreSpreadAtTheSensorsRate) {
   Fixture f;
   f.est.set_site(site_with("{}"));
-  // The tag's lines arrive three at a time, every 300 ms, with one stamp; 10 Hz really.
+  // The tag's lines arrive three at a time, every 300 ms, with one stamp; 10 Hz really. (Their
+  // values differ by the sensor's last digit: the same stamp and values would be a copy.)
   for (int i = 0; i < 300; ++i) {
     f.est.on_baro(reading("B1", kT0 + ms(100 * i), 100900.0, true));
     if (i % 3 == 2)
       for (int k = 0; k < 3; ++k)
-        f.est.on_baro(reading("T1", kT0 + ms(100 * i), pressure_at(100900.0, 2.4, 1.0)));
+        f.est.on_baro(reading("T1", kT0 + ms(100 * i), pressure_at(100900.0, 2.4, 1.0) + 0.01 * k));
   }
   f.est.finish();
   EXPECT_EQ(f.est.stats().dropped_out_of_order, 0);
@@ -165,7 +166,7 @@ TEST(AltitudeNoise, ReadingsSharingOneStampAreSpreadAtTheSensorsRate) {
   g.est.set_site(site_with("{sensors: {T1: {rate_hz: 20}}}"));
   g.est.on_baro(reading("B1", kT0, 100900.0, true));
   g.est.on_baro(reading("T1", kT0 + ms(10), 100900.0));
-  g.est.on_baro(reading("T1", kT0 + ms(10), 100900.0));
+  g.est.on_baro(reading("T1", kT0 + ms(10), 100900.01));
   g.est.on_baro(reading("T1", kT0 + ms(5), 100900.0));
   g.est.on_baro(reading("B1", kT0 + ms(100), 100900.0, true));
   g.est.finish();

@@ -8,10 +8,12 @@
 #include <cmath>
 #include <ips/pose_t.hpp>
 #include <ips/uwb_range_t.hpp>
+#include <random>
+#include <vector>
 
 #include "drivers/sim/simulator.hpp"
-#include "tests/estimators/simulated_inputs.hpp"
 #include "loggers/eval/evaluation.hpp"
+#include "tests/estimators/simulated_inputs.hpp"
 
 namespace ips::uwb_twr {
 namespace {
@@ -181,6 +183,51 @@ TEST(TwrEstimator, LateRangesBeyondToleranceAreDropped) {
   est.on_range(range_msg(2'000'000, "A1", (truth - site.anchors[0].position).norm()));
   est.on_range(range_msg(1'000'000, "A2", (truth - site.anchors[1].position).norm()));
   EXPECT_EQ(est.stats().dropped_late, 1);
+}
+
+// A LAN repeats datagrams: a copy of a range is a duplicate (routine), not a second range fused.
+// The same stamp and anchor with another sequence number or value is another range.
+TEST(TwrEstimator, ACopiedRangeIsADuplicateNotASecondRange) {
+  const Site site = square_site(1.2);
+  std::vector<pose_t> once_out, twice_out;
+  TwrEstimator once([&](const pose_t& p) { once_out.push_back(p); });
+  TwrEstimator twice([&](const pose_t& p) { twice_out.push_back(p); });
+  once.set_site(site);
+  twice.set_site(site);
+  std::mt19937_64 rng(5);
+  std::normal_distribution<double> noise(0.0, 0.1);
+  const Eigen::Vector3d truth(3.0, 5.0, 1.2);
+  utime_t t = 1'000'000;
+  int copies = 0;
+  for (int e = 0; e < 40; ++e)
+    for (const auto& a : site.anchors) {
+      uwb_range_t m = range_msg(t, a.id, (truth - a.position).norm() + noise(rng));
+      m.seq = copies;
+      once.on_range(m);
+      twice.on_range(m);
+      twice.on_range(m);
+      ++copies;
+      t += 25'000;
+    }
+  EXPECT_EQ(twice.stats().dropped_duplicate, copies);
+  EXPECT_EQ(twice.drop_reasons().count(DropReason::kDuplicate), copies);
+  EXPECT_TRUE(drop_reason_is_routine(DropReason::kDuplicate));
+  EXPECT_EQ(twice.stats().ranges_used, once.stats().ranges_used);
+  ASSERT_FALSE(once_out.empty());
+  ASSERT_EQ(twice_out.size(), once_out.size());
+  for (size_t k = 0; k < once_out.size(); ++k)
+    for (int c = 0; c < 3; ++c) ASSERT_EQ(twice_out[k].position[c], once_out[k].position[c]) << k;
+
+  uwb_range_t m = range_msg(t, "A1", 4.0);
+  m.seq = 1000;
+  once.on_range(m);
+  m.seq = 1001;
+  once.on_range(m);
+  m.range_m = 4.01;
+  once.on_range(m);
+  EXPECT_EQ(once.stats().dropped_duplicate, 0);
+  once.on_range(m);
+  EXPECT_EQ(once.stats().dropped_duplicate, 1);
 }
 
 TEST(TwrEstimator, ABogusStampCostsNothingAndAClockStepBackRestartsTheTrack) {
