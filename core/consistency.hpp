@@ -16,6 +16,14 @@
 // configured value is a floor: see ConsistencyOptions). A
 // learned value within its bounds compensates, so the channel is reported but the process is
 // not degraded; at a bound, or with learning off, it is.
+//
+// Learning per link. A measurement between a tag and an anchor names its tag (`link`): the
+// variance it is given is then learned from that tag's measurements of that anchor only, while
+// the verdicts (HEALTH, the replay's summary) stay per anchor. A tag in an NLOS corner of one
+// anchor then widens its own ranges of that anchor, not every tag's, and a tag's estimates depend
+// on its own measurements only: a shard (--shard K/N) or a replay lane estimates it as one
+// instance does. A link keeps only what learning needs (its window's r^2 and H P H' as floats);
+// with one tag its learned variance is its anchor's.
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
@@ -98,13 +106,17 @@ class ConsistencyMonitor {
   // A scalar measurement: innovation r (measured - predicted), the prediction's variance hph
   // (H P H') and the CONFIGURED measurement variance r_cfg. `setting` names what the user set,
   // as written: "pressure_sigma_pa 0.5".
+  // `link`: the tag at the other end, when the variance is learned per link (above).
   void add_scalar(std::string_view kind, std::string_view source, double t, double r, double hph,
-                  double r_cfg, bool gated, std::string_view setting = {}) {
+                  double r_cfg, bool gated, std::string_view setting = {},
+                  std::string_view link = {}) {
     if (!std::isfinite(r) || !std::isfinite(hph) || !(r_cfg > 0.0) || !std::isfinite(t)) return;
     Channel& c = channel(kind, source, setting, 1, true);
     push(c, t, Sample{t, r * r / (std::max(hph, 0.0) + r_cfg), r * r, std::max(hph, 0.0), gated});
     c.r_cfg = r_cfg;
     if (++c.since_learn >= 5 || c.window.size() <= opts_.min_samples) relearn(c);
+    if (!link.empty() && c.learns)
+      push_link(links_[link_key(kind, source, link)], t, r * r, hph, r_cfg);
   }
   // A vector measurement's normalised innovation squared (against the configured noise).
   void add_nis(std::string_view kind, std::string_view source, double t, double nis, int dof,
@@ -116,8 +128,15 @@ class ConsistencyMonitor {
 
   // The variance to use now for a scalar channel: r_cfg until the window holds min_samples (or
   // with learning off), then the learned one within its bounds.
-  double variance(std::string_view kind, std::string_view source, double r_cfg) const {
+  // With `link`, the link's own (its tag's measurements of the source).
+  double variance(std::string_view kind, std::string_view source, double r_cfg,
+                  std::string_view link = {}) const {
     if (!opts_.learn || !(r_cfg > 0.0)) return r_cfg;
+    if (!link.empty()) {
+      const auto it = links_.find(link_key(kind, source, link));
+      if (it == links_.end() || !std::isfinite(it->second.learned_scale)) return r_cfg;
+      return r_cfg * it->second.learned_scale;
+    }
     const Channel* c = find(kind, source);
     if (c == nullptr || !c->learns || !std::isfinite(c->learned_scale)) return r_cfg;
     return r_cfg * c->learned_scale;
@@ -193,7 +212,11 @@ class ConsistencyMonitor {
     return s;
   }
   size_t channels() const { return channels_.size(); }
-  void clear() { channels_.clear(); }
+  size_t links() const { return links_.size(); }
+  void clear() {
+    channels_.clear();
+    links_.clear();
+  }
 
  private:
   struct Sample {
@@ -202,16 +225,17 @@ class ConsistencyMonitor {
   };
   // A window's values kept in order, so that its median is read, not searched for (a replay
   // adds a sample per range: a selection over 300 values each time was a quarter of its time).
-  class Sorted {
+  template <class T>
+  class SortedValues {
    public:
-    void add(double x) { v_.insert(upper_bound(x), x); }
-    void remove(double x) {
+    void add(T x) { v_.insert(upper_bound(x), x); }
+    void remove(T x) {
       const auto it = lower_bound(x);
       if (it != v_.end() && !(x < *it)) v_.erase(it);
     }
     // remove(out) then add(in) in one pass: only the values between the two places move (a
     // full window's step, a third of the window on average instead of all of it).
-    void replace(double out, double in) {
+    void replace(T out, T in) {
       const auto it = lower_bound(out);
       if (it == v_.end() || out < *it) return add(in);
       const auto to = upper_bound(in);
@@ -230,17 +254,18 @@ class ConsistencyMonitor {
     double median() const {
       if (v_.empty()) return NAN;
       const size_t mid = v_.size() / 2;
-      return v_.size() % 2 == 0 ? 0.5 * (v_[mid] + v_[mid - 1]) : v_[mid];
+      return v_.size() % 2 == 0 ? 0.5 * (static_cast<double>(v_[mid]) + v_[mid - 1])
+                                : static_cast<double>(v_[mid]);
     }
 
     // std::lower_bound's and std::upper_bound's places, found without branches on the values
     // (a conditional move per halving): which half a new NIS falls in is a coin toss, and the
     // mispredicted branches of six searches per sample were most of a replay's monitoring.
-    std::vector<double>::iterator lower_bound(double x) {
-      return v_.begin() + partition_point([x](double v) { return v < x; });
+    typename std::vector<T>::iterator lower_bound(T x) {
+      return v_.begin() + partition_point([x](T v) { return v < x; });
     }
-    std::vector<double>::iterator upper_bound(double x) {
-      return v_.begin() + partition_point([x](double v) { return !(x < v); });
+    typename std::vector<T>::iterator upper_bound(T x) {
+      return v_.begin() + partition_point([x](T v) { return !(x < v); });
     }
 
    private:
@@ -249,7 +274,7 @@ class ConsistencyMonitor {
     std::ptrdiff_t partition_point(Before before) const {
       size_t n = v_.size();
       if (n == 0) return 0;
-      const double* base = v_.data();
+      const T* base = v_.data();
       while (n > 1) {
         const size_t half = n / 2;
         base = before(base[half]) ? base + half : base;
@@ -257,8 +282,9 @@ class ConsistencyMonitor {
       }
       return (base - v_.data()) + (before(*base) ? 1 : 0);
     }
-    std::vector<double> v_;
+    std::vector<T> v_;
   };
+  using Sorted = SortedValues<double>;
   struct Channel {
     std::string kind, source, setting;
     int dof = 1;
@@ -278,7 +304,55 @@ class ConsistencyMonitor {
     int since_check = 0;
     int noisy_run = 0;  // the checks in a row (the last ones) that found it noisy
   };
+  // A link's learning: its window's r^2 and H P H' (floats: 100 tags x 8 anchors at 10 Hz keep
+  // 160 000 of them), in arrival order and in order.
+  struct LinkSample {
+    double t;
+    float r2, hph;
+  };
+  struct Link {
+    std::deque<LinkSample> window;
+    SortedValues<float> r2_sorted, hph_sorted;
+    double learned_scale = NAN;
+    int since_learn = 0;
+  };
 
+  static std::string link_key(std::string_view kind, std::string_view source,
+                              std::string_view link) {
+    std::string k = key_of(kind, source);
+    k += '\x1f';
+    k += link;
+    return k;
+  }
+  // As push() and relearn() for a channel, for a link's learning only.
+  void push_link(Link& l, double t, double r2, double hph, double r_cfg) {
+    if (!l.window.empty() && t < l.window.back().t - opts_.window_s) {
+      l.window.clear();
+      l.r2_sorted.clear();
+      l.hph_sorted.clear();
+    }
+    while (!l.window.empty() &&
+           (l.window.size() >= opts_.max_samples || l.window.front().t < t - opts_.window_s)) {
+      l.r2_sorted.remove(l.window.front().r2);
+      l.hph_sorted.remove(l.window.front().hph);
+      l.window.pop_front();
+    }
+    const LinkSample s{t, static_cast<float>(r2), static_cast<float>(std::max(hph, 0.0))};
+    l.window.push_back(s);
+    l.r2_sorted.add(s.r2);
+    l.hph_sorted.add(s.hph);
+    if (++l.since_learn < 5 && l.window.size() > opts_.min_samples) return;
+    l.since_learn = 0;
+    if (l.window.size() < opts_.min_samples) return;
+    const double scale = (l.r2_sorted.median() / chi2_median(1) - l.hph_sorted.median()) / r_cfg;
+    l.learned_scale = learned_scale_of(scale);
+  }
+  // The scale a window's estimate gives: 1 below the deadband, else within the bounds.
+  double learned_scale_of(double scale) const {
+    return !std::isfinite(scale) || scale < opts_.learn_deadband
+               ? 1.0
+               : std::clamp(scale, opts_.learn_min, opts_.learn_max);
+  }
   static std::string key_of(std::string_view kind, std::string_view source) {
     std::string k(kind);
     k += '\x1f';
@@ -377,9 +451,7 @@ class ConsistencyMonitor {
     c.at_bound = !(scale < opts_.learn_max);
     // Below learn_deadband the configured value stands: an estimate from a few dozen samples
     // scatters by tens of percent, and a consistent channel must not jitter.
-    c.learned_scale = !std::isfinite(scale) || scale < opts_.learn_deadband
-                          ? 1.0
-                          : std::clamp(scale, opts_.learn_min, opts_.learn_max);
+    c.learned_scale = learned_scale_of(scale);
   }
   // The window's ratio (median NIS over the chi-square median) and the state it gives; NaN and
   // kTooFew for an empty window.
@@ -464,6 +536,7 @@ class ConsistencyMonitor {
   ConsistencyOptions opts_;
   std::vector<std::string> monitor_only_;
   std::map<std::string, Channel> channels_;
+  std::map<std::string, Link> links_;  // learning per link (kind, source, tag)
 };
 
 // A live process's report of its estimator's consistency in HEALTH, from its 1 Hz timer:

@@ -299,6 +299,7 @@ class FuseEstimator {
     utime_t last_horizontal = 0;
   };
   struct Track {
+    std::string tag_id;  // the tag's (its links' noise is learned per tag: core/consistency.hpp)
     bool initialised = false;
     bool ever_started = false;   // a gap's restart takes no site start pose
     bool absolute_seen = false;  // ... nor, after a fix in the site's frame, a dead-reckoning one

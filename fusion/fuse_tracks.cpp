@@ -45,6 +45,7 @@ void FuseEstimator::restart_track(const std::string& tag_id) {
   auto it = tracks_.find(tag_id);
   if (it == tracks_.end()) return;
   Track fresh;
+  fresh.tag_id = tag_id;
   fresh.tally = it->second.tally;
   fresh.ever_started = it->second.ever_started;
   fresh.absolute_seen = it->second.absolute_seen;
@@ -60,6 +61,7 @@ FuseEstimator::Track* FuseEstimator::find_or_add_track(const std::string& tag_id
       return nullptr;
     }
     it = tracks_.try_emplace(tag_id).first;
+    it->second.tag_id = tag_id;
   }
   Track& track = it->second;
   if (track.initialised && t - track.newest > s_to_utime(params_.max_gap_s)) {

@@ -267,7 +267,7 @@ void TwrEstimator::update(Track& t, CvFilter<D>& f, size_t anchor_index, const u
   RangeNoise noise;
   const double r_cfg = params_.range_sigma_m * params_.range_sigma_m;
   const std::string& anchor_id = site_->anchors[anchor_index].id;
-  noise.r_var = consistency_.variance("RANGE", anchor_id, r_cfg);
+  noise.r_var = consistency_.variance("RANGE", anchor_id, r_cfg, t.tag_id);  // the link's
   noise.gate_chi2 = params_.gate_sigma * params_.gate_sigma;
   noise.gate_chi2_positive = params_.nlos_gate_sigma * params_.nlos_gate_sigma;
   noise.downweight_sigma = params_.nlos_downweight_sigma;
@@ -286,7 +286,7 @@ void TwrEstimator::update(Track& t, CvFilter<D>& f, size_t anchor_index, const u
       noise);
 
   consistency_.add_scalar("RANGE", anchor_id, utime_to_s(m.utime), r.innovation_m, r.hph, r_cfg,
-                          !r.accepted, range_setting_);
+                          !r.accepted, range_setting_, t.tag_id);
   if (!r.accepted) {
     ++stats_.rejected_gate;
     if (++t.consecutive_rejections >= params_.reinit_after_rejections) t.initialised = false;
@@ -410,8 +410,9 @@ void TwrEstimator::learn_offsets(Track& t, utime_t now) {
   double r_var = 0;
   for (const auto& a : site_->anchors) {
     positions.push_back(a.position);
-    r_var = std::max(r_var, consistency_.variance("RANGE", a.id,
-                                                  params_.range_sigma_m * params_.range_sigma_m));
+    r_var = std::max(
+        r_var, consistency_.variance("RANGE", a.id, params_.range_sigma_m * params_.range_sigma_m,
+                                     t.tag_id));
   }
   t.last_bias_utime = now;
   learn_offsets_from_epoch(t.bias, latest, positions, now, track, v, track_var, dims,

@@ -72,8 +72,8 @@ int main(int argc, char** argv) {
                  "split the tags into L lanes (by their shard among L, as --shard), each with its "
                  "own instance of every estimator but ips-zones, as L shards of a live site: "
                  "--jobs threads run them side by side. The output depends on L, not on --jobs; "
-                 "what an estimator learns across tags (each anchor's noise) each lane learns "
-                 "from its own tags")
+                 "what an estimator learns across tags (each BLE anchor's angle noise, the TDoA "
+                 "anchors' clocks) each lane learns from its own tags")
       ->check(CLI::Range(1, 1024));
   std::vector<std::string> sets;
   app.add_option("--set", sets,

@@ -15,8 +15,9 @@
 // L and never on the threads: `--lanes 8 --jobs 1` and `--lanes 8 --jobs 2` give the same bytes.
 //
 // What lanes change: the estimates are those of L shards, not of one instance. Whatever one
-// estimator learns across tags (each anchor's range and angle noise, the TDoA anchors' clocks)
-// each lane learns from its own tags (docs/development.md "Scaling by tag").
+// estimator learns across tags (each BLE anchor's angle noise, the TDoA anchors' clocks) each
+// lane learns from its own tags, and blinks and epochs close at other events (docs/
+// development.md "Tags in lanes"). Range noise is learned per link: the same in lanes.
 #include <atomic>
 #include <condition_variable>
 #include <cstdint>

@@ -217,6 +217,56 @@ struct FakeNode {
   void end_lasting_error(const std::string&) { ++ends; }
 };
 
+// Learning per link: two tags ranging one anchor, one of them from an NLOS corner (its ranges 5x
+// the configured sigma). Each link learns its own variance, so the clean tag's ranges keep the
+// configured one; the verdict (HEALTH) stays one per anchor, over both tags. One tag alone
+// learns its anchor's variance, as without links.
+TEST(ConsistencyMonitor, EachLinkLearnsItsOwnVarianceTheVerdictIsPerAnchor) {
+  ConsistencyMonitor m;
+  std::mt19937 rng(4);
+  const double cfg = 0.01, hph = 0.001;
+  std::normal_distribution<double> clean(0.0, std::sqrt(hph + cfg)),
+      nlos(0.0, std::sqrt(hph + 25 * cfg));
+  for (int i = 0; i < 200; ++i) {
+    const double t = i * 0.1;
+    m.add_scalar("RANGE", "A1", t, nlos(rng), hph, cfg, false, "range_sigma_m 0.1", "T1");
+    m.add_scalar("RANGE", "A1", t + 0.05, clean(rng), hph, cfg, false, "range_sigma_m 0.1", "T2");
+  }
+  EXPECT_EQ(m.channels(), 1u);
+  EXPECT_EQ(m.links(), 2u);
+  EXPECT_NEAR(m.variance("RANGE", "A1", cfg, "T1") / cfg, 25.0, 7.0);
+  EXPECT_EQ(m.variance("RANGE", "A1", cfg, "T2"), cfg);  // within the deadband: the configured
+  EXPECT_EQ(m.variance("RANGE", "A1", cfg, "T3"), cfg);  // a link not heard yet
+  const double pooled = m.variance("RANGE", "A1", cfg) / cfg;  // the anchor's, over both tags
+  EXPECT_GT(pooled, 2.0);
+  EXPECT_LT(pooled, 20.0);
+  ASSERT_EQ(m.verdicts().size(), 1u);
+  EXPECT_EQ(m.verdicts()[0].n, 300u);
+
+  // One tag: its link learns what its anchor does (floats against doubles: within 1e-5).
+  ConsistencyMonitor one;
+  std::mt19937 rng1(5);
+  for (int i = 0; i < 300; ++i) {
+    one.add_scalar("RANGE", "A1", i * 0.1, nlos(rng1), hph, cfg, false, "", "T1");
+    EXPECT_NEAR(one.variance("RANGE", "A1", cfg, "T1"), one.variance("RANGE", "A1", cfg),
+                1e-5 * one.variance("RANGE", "A1", cfg))
+        << i;
+  }
+  // Learning off, or a monitored-only kind: no link learns.
+  ConsistencyMonitor off;
+  off.set_learning(false);
+  off.monitor_only("ANGLE");
+  for (int i = 0; i < 50; ++i)
+    off.add_scalar("RANGE", "A1", i * 0.1, 1.0, hph, cfg, false, "", "T1");
+  EXPECT_EQ(off.links(), 0u);
+  EXPECT_EQ(off.variance("RANGE", "A1", cfg, "T1"), cfg);
+  ConsistencyMonitor only;
+  only.monitor_only("ANGLE");
+  for (int i = 0; i < 50; ++i)
+    only.add_scalar("ANGLE", "B1", i * 0.1, 1.0, hph, cfg, false, "", "T1");
+  EXPECT_EQ(only.links(), 0u);
+}
+
 TEST(ConsistencyHealth, DegradesWhileUncompensatedAndEnds) {
   ConsistencyOptions o;
   o.learn = false;

@@ -4,8 +4,9 @@
 # and three `ips-fuse --shard K/3` (POSE_FUSED_S1..S3), each a separate process; ips-record
 # records the poses, TRUTH and HEALTH. Twice:
 #   full: the lab as it is (every sensor, noise learning on);
-#   exact: the lab without its TDoA and BLE AoA sensors and with learn_noise off (fuse, uwb_tdoa,
-#          aoa): what remains of ips-fuse keeps nothing across tags.
+#   exact: the lab without its TDoA and BLE AoA sensors, noise learning on: what remains of
+#          ips-fuse keeps nothing across tags that changes an estimate (range noise is learned
+#          per link, tag and anchor: core/consistency.hpp).
 # Each time:
 #  1. every tag's poses are on exactly one shard's channel, the shard the documented hash names
 #     (FNV-1a 64 of the id mod 3, plus 1: core/tag_selector.hpp), and every tag of the single
@@ -14,12 +15,12 @@
 #     exact: every position bit-identical. The sharding itself changes nothing;
 #     full: positions within 0.05 m at the 95th percentile per tag, 0.5 m at most, and the
 #       shards' pooled horizontal RMSE against TRUTH within 0.01 m of the single's. Not
-#       identical, because ips-fuse shares state across tags: its ConsistencyMonitor learns each
-#       anchor's range noise from every tag's innovations (a shard from 2 to 4 tags), and its
-#       hosted TDoA estimator processes a blink when a later report of any sender closes it,
-#       with the anchors' clock model as it stands then. Measured (seed 1): per-tag p95 0.0005
-#       to 0.022 m, max 0.027 to 0.19 m; RMSE 0.056 m single, 0.056/0.058/0.056 m per shard
-#       (docs/networking.md#splitting-a-big-site); with either coupling removed (the exact
+#       identical, because ips-fuse's hosted TDoA estimator processes a blink when a later
+#       report of any sender closes it, with the anchors' clock model as it stands then, and its
+#       hosted AoA closes an epoch at any sender's event (until 2026-12-05 its range noise,
+#       learned per anchor from every tag, coupled them too). Measured (seed 1, then): per-tag
+#       p95 0.0005 to 0.022 m, max 0.027 to 0.19 m; RMSE 0.056 m single, 0.056/0.058/0.056 m
+#       per shard (docs/networking.md#splitting-a-big-site); without those sensors (the exact
 #       run) the difference is 0;
 #  3. each shard's HEALTH note says what it skipped ("shard 2/3: N messages of 6 other tags
 #     skipped"), and no instance lost a message on the bus (else the inputs differed).
@@ -176,11 +177,10 @@ EOF
 
 "$BIN/ips-bus-check" --timeout 30 || fail "multicast does not loop back inside the namespace"
 run_case full lab
-# The lab without the sensors ips-fuse couples tags through, and without noise learning.
-sed -e 's/^    uwb_twr:$/    fuse: {learn_noise: false}\n    uwb_tdoa: {learn_noise: false}\n    aoa: {learn_noise: false}\n    uwb_twr:/' \
-  -e 's/^  uwb_tdoa:$/  uwb_tdoa:\n    enabled: false/' -e 's/^  ble_aoa:$/  ble_aoa:\n    enabled: false/' \
+# The lab without the sensors ips-fuse couples tags through (noise learning on, per link).
+sed -e 's/^  uwb_tdoa:$/  uwb_tdoa:\n    enabled: false/' -e 's/^  ble_aoa:$/  ble_aoa:\n    enabled: false/' \
   "$ROOT/config/scenarios/lab.yaml" >"$WORK/lab-exact.yaml"
-[ "$(grep -c 'learn_noise: false\|enabled: false' "$WORK/lab-exact.yaml")" -eq 5 ] ||
+[ "$(grep -c 'enabled: false' "$WORK/lab-exact.yaml")" -eq 2 ] ||
   fail "config/scenarios/lab.yaml changed shape: the exact case could not be made from it"
 run_case exact "$WORK/lab-exact.yaml"
 echo "shards_live_netns: ok"
