@@ -116,7 +116,7 @@ class ConsistencyMonitor {
     c.r_cfg = r_cfg;
     if (++c.since_learn >= 5 || c.window.size() <= opts_.min_samples) relearn(c);
     if (!link.empty() && c.learns)
-      push_link(links_[link_key(kind, source, link)], t, r * r, hph, r_cfg);
+      push_link(link_of(kind, source, link), t, r * r, hph, r_cfg);
   }
   // A vector measurement's normalised innovation squared (against the configured noise).
   void add_nis(std::string_view kind, std::string_view source, double t, double nis, int dof,
@@ -133,7 +133,7 @@ class ConsistencyMonitor {
                   std::string_view link = {}) const {
     if (!opts_.learn || !(r_cfg > 0.0)) return r_cfg;
     if (!link.empty()) {
-      const auto it = links_.find(link_key(kind, source, link));
+      const auto it = links_.find(link_key(kind, source, link, key_scratch_));
       if (it == links_.end() || !std::isfinite(it->second.learned_scale)) return r_cfg;
       return r_cfg * it->second.learned_scale;
     }
@@ -317,12 +317,20 @@ class ConsistencyMonitor {
     int since_learn = 0;
   };
 
-  static std::string link_key(std::string_view kind, std::string_view source,
-                              std::string_view link) {
-    std::string k = key_of(kind, source);
+  // A link's key, built in `k` (a member's buffer: no allocation per measurement).
+  static const std::string& link_key(std::string_view kind, std::string_view source,
+                                     std::string_view link, std::string& k) {
+    k.assign(kind);
+    k += '\x1f';
+    k += source;
     k += '\x1f';
     k += link;
     return k;
+  }
+  Link& link_of(std::string_view kind, std::string_view source, std::string_view link) {
+    const std::string& k = link_key(kind, source, link, key_scratch_);
+    const auto it = links_.find(k);
+    return it != links_.end() ? it->second : links_[k];
   }
   // As push() and relearn() for a channel, for a link's learning only.
   void push_link(Link& l, double t, double r2, double hph, double r_cfg) {
@@ -537,6 +545,7 @@ class ConsistencyMonitor {
   std::vector<std::string> monitor_only_;
   std::map<std::string, Channel> channels_;
   std::map<std::string, Link> links_;  // learning per link (kind, source, tag)
+  mutable std::string key_scratch_;     // link_key's buffer
 };
 
 // A live process's report of its estimator's consistency in HEALTH, from its 1 Hz timer:
