@@ -106,17 +106,29 @@ class ConsistencyMonitor {
   // A scalar measurement: innovation r (measured - predicted), the prediction's variance hph
   // (H P H') and the CONFIGURED measurement variance r_cfg. `setting` names what the user set,
   // as written: "pressure_sigma_pa 0.5".
-  // `link`: the tag at the other end, when the variance is learned per link (above).
+  // A link's handle (link(): its kind, source and tag), for the variance learned per link (above).
+  using LinkId = int32_t;
+  static constexpr LinkId kNoLink = -1;
+  // The handle of a link, made on first use; valid until the monitor is replaced or cleared (an
+  // estimator keeps one per tag and anchor, in the tag's track).
+  LinkId link(std::string_view kind, std::string_view source, std::string_view tag) {
+    const std::string& k = link_key(kind, source, tag, key_scratch_);
+    const auto it = link_ids_.find(k);
+    if (it != link_ids_.end()) return it->second;
+    links_.emplace_back();
+    return link_ids_[k] = static_cast<LinkId>(links_.size() - 1);
+  }
+
+  // `link`: the link the measurement is of, when the variance is learned per link.
   void add_scalar(std::string_view kind, std::string_view source, double t, double r, double hph,
-                  double r_cfg, bool gated, std::string_view setting = {},
-                  std::string_view link = {}) {
+                  double r_cfg, bool gated, std::string_view setting = {}, LinkId link = kNoLink) {
     if (!std::isfinite(r) || !std::isfinite(hph) || !(r_cfg > 0.0) || !std::isfinite(t)) return;
     Channel& c = channel(kind, source, setting, 1, true);
     push(c, t, Sample{t, r * r / (std::max(hph, 0.0) + r_cfg), r * r, std::max(hph, 0.0), gated});
     c.r_cfg = r_cfg;
     if (++c.since_learn >= 5 || c.window.size() <= opts_.min_samples) relearn(c);
-    if (!link.empty() && c.learns)
-      push_link(link_of(kind, source, link), t, r * r, hph, r_cfg);
+    if (link != kNoLink && c.learns)
+      push_link(links_.at(static_cast<size_t>(link)), t, r * r, hph, r_cfg);
   }
   // A vector measurement's normalised innovation squared (against the configured noise).
   void add_nis(std::string_view kind, std::string_view source, double t, double nis, int dof,
@@ -130,12 +142,12 @@ class ConsistencyMonitor {
   // with learning off), then the learned one within its bounds.
   // With `link`, the link's own (its tag's measurements of the source).
   double variance(std::string_view kind, std::string_view source, double r_cfg,
-                  std::string_view link = {}) const {
+                  LinkId link = kNoLink) const {
     if (!opts_.learn || !(r_cfg > 0.0)) return r_cfg;
-    if (!link.empty()) {
-      const auto it = links_.find(link_key(kind, source, link, key_scratch_));
-      if (it == links_.end() || !std::isfinite(it->second.learned_scale)) return r_cfg;
-      return r_cfg * it->second.learned_scale;
+    if (link != kNoLink) {
+      if (link < 0 || static_cast<size_t>(link) >= links_.size()) return r_cfg;
+      const double scale = links_[static_cast<size_t>(link)].learned_scale;
+      return std::isfinite(scale) ? r_cfg * scale : r_cfg;
     }
     const Channel* c = find(kind, source);
     if (c == nullptr || !c->learns || !std::isfinite(c->learned_scale)) return r_cfg;
@@ -216,6 +228,7 @@ class ConsistencyMonitor {
   void clear() {
     channels_.clear();
     links_.clear();
+    link_ids_.clear();
   }
 
  private:
@@ -317,7 +330,7 @@ class ConsistencyMonitor {
     int since_learn = 0;
   };
 
-  // A link's key, built in `k` (a member's buffer: no allocation per measurement).
+  // A link's key, built in `k`.
   static const std::string& link_key(std::string_view kind, std::string_view source,
                                      std::string_view link, std::string& k) {
     k.assign(kind);
@@ -327,11 +340,7 @@ class ConsistencyMonitor {
     k += link;
     return k;
   }
-  Link& link_of(std::string_view kind, std::string_view source, std::string_view link) {
-    const std::string& k = link_key(kind, source, link, key_scratch_);
-    const auto it = links_.find(k);
-    return it != links_.end() ? it->second : links_[k];
-  }
+
   // As push() and relearn() for a channel, for a link's learning only.
   void push_link(Link& l, double t, double r2, double hph, double r_cfg) {
     if (!l.window.empty() && t < l.window.back().t - opts_.window_s) {
@@ -544,8 +553,9 @@ class ConsistencyMonitor {
   ConsistencyOptions opts_;
   std::vector<std::string> monitor_only_;
   std::map<std::string, Channel> channels_;
-  std::map<std::string, Link> links_;  // learning per link (kind, source, tag)
-  mutable std::string key_scratch_;     // link_key's buffer
+  std::deque<Link> links_;                  // learning per link, by LinkId
+  std::map<std::string, LinkId> link_ids_;  // (kind, source, tag) -> LinkId
+  std::string key_scratch_;                 // link_key's buffer
 };
 
 // A live process's report of its estimator's consistency in HEALTH, from its 1 Hz timer:

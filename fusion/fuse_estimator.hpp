@@ -316,6 +316,7 @@ class FuseEstimator {
     // checked against them.
     std::deque<Measurement> recent_ranges;
     RecentRepeats range_repeats;          // the last ranges' keys, to know a copy
+    std::vector<ConsistencyMonitor::LinkId> noise_links;  // per site anchor, made on first use
     utime_t waiting_since = 0;            // the first range of the wait (0: not waiting)
     int gated_since_check = 0;            // ranges gated since the last check_against_ranges
     utime_t last_lost_check = 0;
@@ -358,6 +359,8 @@ class FuseEstimator {
   // Time went back for the tag: its track starts afresh (flagged REINITIALISED when it does).
   void restart_track(const std::string& tag_id);
   Track* find_or_add_track(const std::string& tag_id, utime_t t);
+  // The link (this tag, a site anchor) whose range noise is learned (core/consistency.hpp).
+  ConsistencyMonitor::LinkId noise_link(Track& t, size_t anchor_index);
   // A dead-reckoning pose or step at or before the tag's previous one: counted as a copy,
   // reordered or late (stats_.dropped_dr_*).
   void count_dr_out_of_turn(const Track& t, utime_t utime);

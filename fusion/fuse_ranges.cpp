@@ -88,9 +88,9 @@ void FuseEstimator::learn_offsets(Track& t, const Measurement& r) {
   double r_var = 0;
   for (const auto& a : site_->anchors) {
     positions.push_back(a.position);
-    r_var = std::max(
-        r_var, consistency_.variance("RANGE", a.id, params_.range_sigma_m * params_.range_sigma_m,
-                                     t.tag_id));
+    r_var = std::max(r_var, consistency_.variance(
+                                "RANGE", a.id, params_.range_sigma_m * params_.range_sigma_m,
+                                noise_link(t, static_cast<size_t>(&a - site_->anchors.data()))));
   }
   const Eigen::Vector3d track = f.x.head<3>();
   Eigen::Vector3d v = f.x.segment<3>(kVel);
@@ -102,12 +102,22 @@ void FuseEstimator::learn_offsets(Track& t, const Measurement& r) {
       MultilaterationSolver::kLevenbergMarquardt);
 }
 
+ConsistencyMonitor::LinkId FuseEstimator::noise_link(Track& t, size_t anchor_index) {
+  if (t.noise_links.size() <= anchor_index)
+    t.noise_links.resize(site_->anchors.size(), ConsistencyMonitor::kNoLink);
+  ConsistencyMonitor::LinkId& id = t.noise_links[anchor_index];
+  if (id == ConsistencyMonitor::kNoLink)
+    id = consistency_.link("RANGE", site_->anchors[anchor_index].id, t.tag_id);
+  return id;
+}
+
 void FuseEstimator::apply_range(Track& t, Snapshot& s, const Measurement& m, bool live) {
   FuseFilter& f = s.filter;
   uwb_twr::RangeNoise noise;
   const double r_cfg = params_.range_sigma_m * params_.range_sigma_m;
   const std::string& anchor_id = site_->anchors[static_cast<size_t>(m.anchor)].id;
-  noise.r_var = consistency_.variance("RANGE", anchor_id, r_cfg, t.tag_id);  // the link's
+  const ConsistencyMonitor::LinkId link = noise_link(t, static_cast<size_t>(m.anchor));
+  noise.r_var = consistency_.variance("RANGE", anchor_id, r_cfg, link);  // the link's
   noise.gate_chi2 = params_.gate_sigma * params_.gate_sigma;
   noise.gate_chi2_positive = params_.nlos_gate_sigma * params_.nlos_gate_sigma;
   noise.downweight_sigma = params_.nlos_downweight_sigma;
@@ -127,7 +137,7 @@ void FuseEstimator::apply_range(Track& t, Snapshot& s, const Measurement& m, boo
                  t.last_checked_fix == 0 || m.t - t.last_checked_fix > kCheckedRecently);
   if (live) {
     consistency_.add_scalar("RANGE", anchor_id, utime_to_s(m.t), u.innovation_m, u.hph, r_cfg,
-                            !u.accepted, range_setting_, t.tag_id);
+                            !u.accepted, range_setting_, link);
     (u.accepted ? stats_.ranges_used : stats_.ranges_rejected)++;
     if (!u.accepted) ++t.gated_since_check;
     if (u.accepted && m.nlos_p > 0.5) ++stats_.ranges_nlos_power;

@@ -210,6 +210,7 @@ void TwrEstimator::on_range(const uwb_range_t& m) {
       fresh.planar = t.planar;
       fresh.height_m = t.height_m;
       fresh.repeats = t.repeats;
+      fresh.noise_links = t.noise_links;
       t = std::move(fresh);
     } else if (behind > s_to_utime(params_.reorder_tolerance_s)) {
       ++stats_.dropped_late;
@@ -267,7 +268,8 @@ void TwrEstimator::update(Track& t, CvFilter<D>& f, size_t anchor_index, const u
   RangeNoise noise;
   const double r_cfg = params_.range_sigma_m * params_.range_sigma_m;
   const std::string& anchor_id = site_->anchors[anchor_index].id;
-  noise.r_var = consistency_.variance("RANGE", anchor_id, r_cfg, t.tag_id);  // the link's
+  const ConsistencyMonitor::LinkId link = noise_link(t, anchor_index);
+  noise.r_var = consistency_.variance("RANGE", anchor_id, r_cfg, link);  // the link's
   noise.gate_chi2 = params_.gate_sigma * params_.gate_sigma;
   noise.gate_chi2_positive = params_.nlos_gate_sigma * params_.nlos_gate_sigma;
   noise.downweight_sigma = params_.nlos_downweight_sigma;
@@ -286,7 +288,7 @@ void TwrEstimator::update(Track& t, CvFilter<D>& f, size_t anchor_index, const u
       noise);
 
   consistency_.add_scalar("RANGE", anchor_id, utime_to_s(m.utime), r.innovation_m, r.hph, r_cfg,
-                          !r.accepted, range_setting_, t.tag_id);
+                          !r.accepted, range_setting_, link);
   if (!r.accepted) {
     ++stats_.rejected_gate;
     if (++t.consecutive_rejections >= params_.reinit_after_rejections) t.initialised = false;
@@ -306,6 +308,15 @@ void TwrEstimator::update(Track& t, CvFilter<D>& f, size_t anchor_index, const u
   t.consecutive_rejections = 0;
   t.last_accept_utime = std::max(t.last_accept_utime, m.utime);
   t.tally.add(r.innovation_m);
+}
+
+ConsistencyMonitor::LinkId TwrEstimator::noise_link(Track& t, size_t anchor_index) {
+  if (t.noise_links.size() <= anchor_index)
+    t.noise_links.resize(site_->anchors.size(), ConsistencyMonitor::kNoLink);
+  ConsistencyMonitor::LinkId& id = t.noise_links[anchor_index];
+  if (id == ConsistencyMonitor::kNoLink)
+    id = consistency_.link("RANGE", site_->anchors[anchor_index].id, t.tag_id);
+  return id;
 }
 
 utime_t TwrEstimator::epoch_window(const Track& t) const {
@@ -410,9 +421,9 @@ void TwrEstimator::learn_offsets(Track& t, utime_t now) {
   double r_var = 0;
   for (const auto& a : site_->anchors) {
     positions.push_back(a.position);
-    r_var = std::max(
-        r_var, consistency_.variance("RANGE", a.id, params_.range_sigma_m * params_.range_sigma_m,
-                                     t.tag_id));
+    r_var = std::max(r_var, consistency_.variance(
+                                "RANGE", a.id, params_.range_sigma_m * params_.range_sigma_m,
+                                noise_link(t, static_cast<size_t>(&a - site_->anchors.data()))));
   }
   t.last_bias_utime = now;
   learn_offsets_from_epoch(t.bias, latest, positions, now, track, v, track_var, dims,

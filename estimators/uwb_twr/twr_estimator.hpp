@@ -195,7 +195,10 @@ class TwrEstimator {
     utime_t last_bias_utime = 0;  // the last epoch the offsets learned from
     bool check_fix = false;
     RecentRepeats repeats;  // the tag's last ranges, to know a copy
+    std::vector<ConsistencyMonitor::LinkId> noise_links;  // per site anchor, made on first use
   };
+  // The link (this tag, a site anchor) whose range noise is learned (core/consistency.hpp).
+  ConsistencyMonitor::LinkId noise_link(Track& t, size_t anchor_index);
   // The epoch: at least epoch_window_s, and a round of the tag's anchors (radios that range one
   // anchor at a time, e.g. every 0.13 s in turn, take 0.5 s to hear four).
   utime_t epoch_window(const Track& t) const;

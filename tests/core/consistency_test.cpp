@@ -227,16 +227,21 @@ TEST(ConsistencyMonitor, EachLinkLearnsItsOwnVarianceTheVerdictIsPerAnchor) {
   const double cfg = 0.01, hph = 0.001;
   std::normal_distribution<double> clean(0.0, std::sqrt(hph + cfg)),
       nlos(0.0, std::sqrt(hph + 25 * cfg));
+  const auto t1 = m.link("RANGE", "A1", "T1"), t2 = m.link("RANGE", "A1", "T2");
+  EXPECT_NE(t1, t2);
+  EXPECT_EQ(m.link("RANGE", "A1", "T1"), t1);  // one handle per link
+  const auto t3 = m.link("RANGE", "A1", "T3");
   for (int i = 0; i < 200; ++i) {
     const double t = i * 0.1;
-    m.add_scalar("RANGE", "A1", t, nlos(rng), hph, cfg, false, "range_sigma_m 0.1", "T1");
-    m.add_scalar("RANGE", "A1", t + 0.05, clean(rng), hph, cfg, false, "range_sigma_m 0.1", "T2");
+    m.add_scalar("RANGE", "A1", t, nlos(rng), hph, cfg, false, "range_sigma_m 0.1", t1);
+    m.add_scalar("RANGE", "A1", t + 0.05, clean(rng), hph, cfg, false, "range_sigma_m 0.1", t2);
   }
   EXPECT_EQ(m.channels(), 1u);
-  EXPECT_EQ(m.links(), 2u);
-  EXPECT_NEAR(m.variance("RANGE", "A1", cfg, "T1") / cfg, 25.0, 7.0);
-  EXPECT_EQ(m.variance("RANGE", "A1", cfg, "T2"), cfg);  // within the deadband: the configured
-  EXPECT_EQ(m.variance("RANGE", "A1", cfg, "T3"), cfg);  // a link not heard yet
+  EXPECT_EQ(m.links(), 3u);
+  EXPECT_NEAR(m.variance("RANGE", "A1", cfg, t1) / cfg, 25.0, 7.0);
+  EXPECT_EQ(m.variance("RANGE", "A1", cfg, t2), cfg);  // within the deadband: the configured
+  EXPECT_EQ(m.variance("RANGE", "A1", cfg, t3), cfg);  // a link not heard yet
+  EXPECT_EQ(m.variance("RANGE", "A1", cfg, 99), cfg);  // no such link
   const double pooled = m.variance("RANGE", "A1", cfg) / cfg;  // the anchor's, over both tags
   EXPECT_GT(pooled, 2.0);
   EXPECT_LT(pooled, 20.0);
@@ -245,26 +250,27 @@ TEST(ConsistencyMonitor, EachLinkLearnsItsOwnVarianceTheVerdictIsPerAnchor) {
 
   // One tag: its link learns what its anchor does (floats against doubles: within 1e-5).
   ConsistencyMonitor one;
+  const auto only_link = one.link("RANGE", "A1", "T1");
   std::mt19937 rng1(5);
   for (int i = 0; i < 300; ++i) {
-    one.add_scalar("RANGE", "A1", i * 0.1, nlos(rng1), hph, cfg, false, "", "T1");
-    EXPECT_NEAR(one.variance("RANGE", "A1", cfg, "T1"), one.variance("RANGE", "A1", cfg),
+    one.add_scalar("RANGE", "A1", i * 0.1, nlos(rng1), hph, cfg, false, "", only_link);
+    EXPECT_NEAR(one.variance("RANGE", "A1", cfg, only_link), one.variance("RANGE", "A1", cfg),
                 1e-5 * one.variance("RANGE", "A1", cfg))
         << i;
   }
-  // Learning off, or a monitored-only kind: no link learns.
+  // Learning off, or a kind only monitored: no link learns.
   ConsistencyMonitor off;
   off.set_learning(false);
-  off.monitor_only("ANGLE");
+  const auto off_link = off.link("RANGE", "A1", "T1");
   for (int i = 0; i < 50; ++i)
-    off.add_scalar("RANGE", "A1", i * 0.1, 1.0, hph, cfg, false, "", "T1");
-  EXPECT_EQ(off.links(), 0u);
-  EXPECT_EQ(off.variance("RANGE", "A1", cfg, "T1"), cfg);
+    off.add_scalar("RANGE", "A1", i * 0.1, 1.0, hph, cfg, false, "", off_link);
+  EXPECT_EQ(off.variance("RANGE", "A1", cfg, off_link), cfg);
   ConsistencyMonitor only;
   only.monitor_only("ANGLE");
+  const auto angle_link = only.link("ANGLE", "B1", "T1");
   for (int i = 0; i < 50; ++i)
-    only.add_scalar("ANGLE", "B1", i * 0.1, 1.0, hph, cfg, false, "", "T1");
-  EXPECT_EQ(only.links(), 0u);
+    only.add_scalar("ANGLE", "B1", i * 0.1, 1.0, hph, cfg, false, "", angle_link);
+  EXPECT_EQ(only.variance("ANGLE", "B1", cfg, angle_link), cfg);
 }
 
 TEST(ConsistencyHealth, DegradesWhileUncompensatedAndEnds) {
