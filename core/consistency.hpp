@@ -119,6 +119,15 @@ class ConsistencyMonitor {
     return link_ids_[k] = static_cast<LinkId>(links_.size() - 1);
   }
 
+  // link() kept in `cache[index]` (kNoLink until first asked; the cache grows to `size`): an
+  // estimator's track keeps its tag's links to the site's anchors so.
+  LinkId cached_link(std::vector<LinkId>& cache, size_t index, size_t size, std::string_view kind,
+                     std::string_view source, std::string_view tag) {
+    if (cache.size() <= index) cache.resize(std::max(size, index + 1), kNoLink);
+    if (cache[index] == kNoLink) cache[index] = link(kind, source, tag);
+    return cache[index];
+  }
+
   // `link`: the link the measurement is of, when the variance is learned per link.
   void add_scalar(std::string_view kind, std::string_view source, double t, double r, double hph,
                   double r_cfg, bool gated, std::string_view setting = {}, LinkId link = kNoLink) {

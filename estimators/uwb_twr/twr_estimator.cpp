@@ -311,12 +311,8 @@ void TwrEstimator::update(Track& t, CvFilter<D>& f, size_t anchor_index, const u
 }
 
 ConsistencyMonitor::LinkId TwrEstimator::noise_link(Track& t, size_t anchor_index) {
-  if (t.noise_links.size() <= anchor_index)
-    t.noise_links.resize(site_->anchors.size(), ConsistencyMonitor::kNoLink);
-  ConsistencyMonitor::LinkId& id = t.noise_links[anchor_index];
-  if (id == ConsistencyMonitor::kNoLink)
-    id = consistency_.link("RANGE", site_->anchors[anchor_index].id, t.tag_id);
-  return id;
+  return consistency_.cached_link(t.noise_links, anchor_index, site_->anchors.size(), "RANGE",
+                                  site_->anchors[anchor_index].id, t.tag_id);
 }
 
 utime_t TwrEstimator::epoch_window(const Track& t) const {
