@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Partitioned sites (issue 25 item 4), end to end over real LCM multicast in a private network
-# namespace: ips-sim (lab, 10 walkers, 30 s at 2x) feeds one ips-fuse with every tag (POSE_FUSED)
+# namespace: ips-sim (lab, 10 walkers, 24 s in real time) feeds one ips-fuse with every tag (POSE_FUSED)
 # and three `ips-fuse --shard K/3` (POSE_FUSED_S1..S3), each a separate process; ips-record
 # records the poses, TRUTH and HEALTH. Twice:
 #   full: the lab as it is (every sensor, noise learning on);
@@ -31,8 +31,11 @@ HERE=$(cd "$(dirname "$0")" && pwd)
 ROOT=$(cd "$HERE/../.." && pwd)
 source "$ROOT/tests/integration/live_test_lib.sh"
 
-DURATION=30  # simulated seconds
-SPEED=2
+# Real time: at 2x, the AddressSanitizer build's single ips-fuse (every tag: 20 % of a core at 1x,
+# 39 % at 2x) fell behind beside another test on the 2 cores of a clean clone's run (22 000
+# datagrams dropped by its kernel buffer, so its inputs were not the shards'), 2026-12-05.
+DURATION=24  # simulated seconds
+SPEED=1
 
 # One case: the four ips-fuse and the recorder up, the simulation, then the checks above.
 run_case() {  # case scenario
