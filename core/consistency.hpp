@@ -103,16 +103,13 @@ class ConsistencyMonitor {
   // scale: e.g. a TDoA difference's comes from the clock filters).
   void monitor_only(std::string_view kind) { monitor_only_.emplace_back(kind); }
 
-  // A scalar measurement: innovation r (measured - predicted), the prediction's variance hph
-  // (H P H') and the CONFIGURED measurement variance r_cfg. `setting` names what the user set,
-  // as written: "pressure_sigma_pa 0.5".
   // A link's handle (link(): its kind, source and tag), for the variance learned per link (above).
   using LinkId = int32_t;
   static constexpr LinkId kNoLink = -1;
   // The handle of a link, made on first use; valid until the monitor is replaced or cleared (an
   // estimator keeps one per tag and anchor, in the tag's track).
   LinkId link(std::string_view kind, std::string_view source, std::string_view tag) {
-    const std::string& k = link_key(kind, source, tag, key_scratch_);
+    const std::string k = key_of(kind, source) + '\x1f' + std::string(tag);
     const auto it = link_ids_.find(k);
     if (it != link_ids_.end()) return it->second;
     links_.emplace_back();
@@ -128,6 +125,9 @@ class ConsistencyMonitor {
     return cache[index];
   }
 
+  // A scalar measurement: innovation r (measured - predicted), the prediction's variance hph
+  // (H P H') and the CONFIGURED measurement variance r_cfg. `setting` names what the user set,
+  // as written: "pressure_sigma_pa 0.5".
   // `link`: the link the measurement is of, when the variance is learned per link.
   void add_scalar(std::string_view kind, std::string_view source, double t, double r, double hph,
                   double r_cfg, bool gated, std::string_view setting = {}, LinkId link = kNoLink) {
@@ -339,17 +339,6 @@ class ConsistencyMonitor {
     int since_learn = 0;
   };
 
-  // A link's key, built in `k`.
-  static const std::string& link_key(std::string_view kind, std::string_view source,
-                                     std::string_view link, std::string& k) {
-    k.assign(kind);
-    k += '\x1f';
-    k += source;
-    k += '\x1f';
-    k += link;
-    return k;
-  }
-
   // As push() and relearn() for a channel, for a link's learning only.
   void push_link(Link& l, double t, double r2, double hph, double r_cfg) {
     if (!l.window.empty() && t < l.window.back().t - opts_.window_s) {
@@ -370,8 +359,8 @@ class ConsistencyMonitor {
     if (++l.since_learn < 5 && l.window.size() > opts_.min_samples) return;
     l.since_learn = 0;
     if (l.window.size() < opts_.min_samples) return;
-    const double scale = (l.r2_sorted.median() / chi2_median(1) - l.hph_sorted.median()) / r_cfg;
-    l.learned_scale = learned_scale_of(scale);
+    l.learned_scale =
+        learned_scale_of(measurement_scale(l.r2_sorted.median(), l.hph_sorted.median(), r_cfg));
   }
   // The scale a window's estimate gives: 1 below the deadband, else within the bounds.
   double learned_scale_of(double scale) const {
@@ -468,8 +457,12 @@ class ConsistencyMonitor {
   // The window's measurement variance (median r^2 over the chi-square(1) median, less the median
   // H P H') over the configured one.
   static double noise_scale(const Channel& c) {
-    return (c.r2_sorted.median() / chi2_median(1) - c.hph_sorted.median()) / c.r_cfg;
+    return measurement_scale(c.r2_sorted.median(), c.hph_sorted.median(), c.r_cfg);
   }
+  static double measurement_scale(double r2_median, double hph_median, double r_cfg) {
+    return (r2_median / chi2_median(1) - hph_median) / r_cfg;
+  }
+
   void relearn(Channel& c) {
     c.since_learn = 0;
     if (c.window.size() < opts_.min_samples) return;
@@ -564,7 +557,6 @@ class ConsistencyMonitor {
   std::map<std::string, Channel> channels_;
   std::deque<Link> links_;                  // learning per link, by LinkId
   std::map<std::string, LinkId> link_ids_;  // (kind, source, tag) -> LinkId
-  std::string key_scratch_;                 // link_key's buffer
 };
 
 // A live process's report of its estimator's consistency in HEALTH, from its 1 Hz timer:
