@@ -221,11 +221,16 @@ const ReplayHost::ChannelInfo& ReplayHost::classify(const std::string& channel) 
 }
 
 void ReplayHost::post(Op op, uint32_t ch, const uint8_t* data, size_t size, bool stable) {
+  // An estimate is this host's own, even when a shared input caused it (a sync master's broadcast
+  // closes a blink of this lane's tag): the fusion counts it as an input of this host alone.
+  const bool estimate =
+      op == Op::kEstimate || op == Op::kEmitPose || op == Op::kEmitStep || op == Op::kEmitAltitude;
+  const bool shared = shared_input_ && !estimate;
   if (!threaded_) {
-    run(Step{op, ch, now_timestamp_, data, 0, size, shared_input_}, data);
+    run(Step{op, ch, now_timestamp_, data, 0, size, shared}, data);
     return;
   }
-  Step s{op, ch, now_timestamp_, stable ? data : nullptr, batch_.bytes.size(), size, shared_input_};
+  Step s{op, ch, now_timestamp_, stable ? data : nullptr, batch_.bytes.size(), size, shared};
   if (!stable && size > 0) batch_.bytes.insert(batch_.bytes.end(), data, data + size);
   batch_.steps.push_back(s);
   if (batch_.steps.size() >= kBatchSteps) submit();
@@ -406,6 +411,7 @@ void ReplayHost::emit(const std::string& channel, const Msg& msg) {
   msg.encode(buffer_.data(), 0, static_cast<int>(buffer_.size()));
   if (!threaded_) {  // what run() does with the step, without decoding what is at hand
     stage_timestamp_ = now_timestamp_;
+    stage_shared_ = false;  // as post() marks an estimate
     ++stats_.estimates_out;
     sink_(channel, now_timestamp_, buffer_.data(), buffer_.size());
     zones_hear(channel, msg);
