@@ -135,6 +135,16 @@ class DropReasons {
     for (size_t i = 0; i < kNumReasons; ++i) counts_[i] += o.counts_[i];
     return *this;
   }
+  DropReasons& operator-=(const DropReasons& o) {
+    for (size_t i = 0; i < kNumReasons; ++i) counts_[i] -= o.counts_[i];
+    return *this;
+  }
+  // Per reason, the smaller count of the two.
+  static DropReasons min(const DropReasons& a, const DropReasons& b) {
+    DropReasons m;
+    for (size_t i = 0; i < kNumReasons; ++i) m.counts_[i] = std::min(a.counts_[i], b.counts_[i]);
+    return m;
+  }
   bool operator==(const DropReasons&) const = default;
 
   // "10 no site, 2 gated": the reasons with a count, largest first (list order on a tie), at most

@@ -296,6 +296,7 @@ void ReplayHost::run_batch(const Batch& b) {
 void ReplayHost::run(const Step& s, const uint8_t* data) {
   stage_timestamp_ = s.timestamp;
   stage_shared_ = s.shared;
+  if (s.shared) ++stage_shared_inputs_;
   const std::string& channel = channel_names_[s.channel];
   // Decodes a message this process encoded or already decoded once: it cannot fail.
   const auto decoded = [&](auto msg) {
@@ -304,7 +305,8 @@ void ReplayHost::run(const Step& s, const uint8_t* data) {
   };
   const auto to_fuse = [&](auto msg, auto&& use) {
     count_in(kFuseIndex, stage_shared_);
-    use(decoded(std::move(msg)));
+    const auto m = decoded(std::move(msg));
+    take_shared(stage_shared_, stage_shared_inputs_, kFuse, *fuse_, [&] { use(m); });
   };
   // A first-stage estimator's estimate: written, heard by ips-zones, handed to the fusion.
   const auto emitted = [&](auto msg) {
@@ -562,6 +564,7 @@ void ReplayHost::process(const std::string& channel, int64_t timestamp, const ui
   if (worker_failed_) rethrow_worker_error();
   ++stats_.events_in;
   now_timestamp_ = timestamp;
+  if (shared_input_) ++shared_inputs_;
   const ChannelInfo& c = classify(channel);
   // Inputs pass through first, so each estimate follows the input that caused it.
   if (c.produced && !opts_.keep_regenerated) {
@@ -594,7 +597,7 @@ void ReplayHost::process(const std::string& channel, int64_t timestamp, const ui
       if (!decode(m) || !take(m.tag_id)) break;
       if (twr_) {
         count_in(kTwrIndex, shared_input_);
-        twr_->on_range(m);
+        take_shared(shared_input_, shared_inputs_, kUwbTwr, *twr_, [&] { twr_->on_range(m); });
       }
       if (fuse_) post(Op::kFuseRange, c.id, data, size, stable);
       break;
@@ -607,7 +610,7 @@ void ReplayHost::process(const std::string& channel, int64_t timestamp, const ui
       if (fuse_) post(Op::kFuseRx, c.id, data, size, stable);
       if (tdoa_) {
         count_in(kTdoaIndex, shared_input_);
-        tdoa_->on_rx(m);
+        take_shared(shared_input_, shared_inputs_, kUwbTdoa, *tdoa_, [&] { tdoa_->on_rx(m); });
       }
       break;
     }
@@ -617,7 +620,7 @@ void ReplayHost::process(const std::string& channel, int64_t timestamp, const ui
       if (fuse_) post(Op::kFusePair, c.id, data, size, stable);
       if (tdoa_) {
         count_in(kTdoaIndex, shared_input_);
-        tdoa_->on_pair(m);
+        take_shared(shared_input_, shared_inputs_, kUwbTdoa, *tdoa_, [&] { tdoa_->on_pair(m); });
       }
       break;
     }
@@ -627,7 +630,7 @@ void ReplayHost::process(const std::string& channel, int64_t timestamp, const ui
       if (fuse_) post(Op::kFuseAoa, c.id, data, size, stable);
       if (aoa_) {
         count_in(kAoaIndex, shared_input_);
-        aoa_->on_event(m);
+        take_shared(shared_input_, shared_inputs_, kAoa, *aoa_, [&] { aoa_->on_event(m); });
       }
       break;
     }
@@ -637,11 +640,11 @@ void ReplayHost::process(const std::string& channel, int64_t timestamp, const ui
       if (fuse_) post(Op::kFuseImu, c.id, data, size, stable);
       if (pdr_) {
         count_in(kPdrIndex, shared_input_);
-        pdr_->on_imu(m);
+        take_shared(shared_input_, shared_inputs_, kPdr, *pdr_, [&] { pdr_->on_imu(m); });
       }
       if (ins_) {
         count_in(kInsIndex, shared_input_);
-        ins_->on_imu(m);
+        take_shared(shared_input_, shared_inputs_, kIns, *ins_, [&] { ins_->on_imu(m); });
       }
       break;
     }
@@ -649,7 +652,8 @@ void ReplayHost::process(const std::string& channel, int64_t timestamp, const ui
       baro_t m;
       if (!decode(m) || (!m.is_reference && !take(m.sensor_id))) break;
       count_in(kAltitudeIndex, shared_input_);
-      altitude_->on_baro(m);
+      take_shared(shared_input_, shared_inputs_, kAltitude, *altitude_,
+                  [&] { altitude_->on_baro(m); });
       break;
     }
     case Input::kFusePose:

@@ -182,6 +182,20 @@ class ReplayHost {
   // The inputs process() is given from now on are given to other hosts as well (a lane's: a
   // message every lane takes): the accounts count them in EstimatorAccount::shared_in too.
   void set_shared_input(bool shared) { shared_input_ = shared; }
+  // What a hosted estimator dropped while it took a shared input: the `ordinal`-th shared input
+  // its stage was given (the same input in every host given the same shared inputs), when the
+  // estimator's drops grew. Every lane drops a bad broadcast alike; the Replayer counts such a
+  // drop once.
+  struct SharedDrops {
+    uint64_t ordinal;
+    const char* estimator;  // its name, as in accounts()
+    DropReasons drops;      // those made while it took the input
+  };
+  // Appends those recorded since the last call to `into`.
+  void take_shared_drops(std::vector<SharedDrops>& into) {
+    into.insert(into.end(), shared_drops_.begin(), shared_drops_.end());
+    shared_drops_.clear();
+  }
   // Names of the estimators hosted, and of every estimator that can be.
   std::vector<std::string> hosted() const;
   static std::vector<std::string> available();
@@ -307,6 +321,22 @@ class ReplayHost {
   }
   bool shared_input_ = false;  // set_shared_input(): the first stage's
   bool stage_shared_ = false;  // the step the second stage runs: its input was shared
+  uint64_t shared_inputs_ = 0, stage_shared_inputs_ = 0;  // taken by each stage so far
+  std::vector<SharedDrops> shared_drops_;
+  // Runs `take` (hands an input to `est`); when the input is shared, records what `est` dropped
+  // meanwhile as the `ordinal`-th shared input's.
+  template <class Est, class Take>
+  void take_shared(bool shared, uint64_t ordinal, const char* name, const Est& est, Take&& take) {
+    if (!shared) {
+      take();
+      return;
+    }
+    const DropReasons before = est.drop_reasons();
+    take();
+    DropReasons grew = est.drop_reasons();
+    grew -= before;
+    if (grew.total() != 0) shared_drops_.push_back(SharedDrops{ordinal, name, grew});
+  }
   std::map<std::string, std::string> producers_;  // produced channel -> the hosted estimator
   std::array<Counts, kNumHosted> counts_{};
   bool site_applied_ = false;

@@ -271,6 +271,7 @@ std::unique_ptr<Replayer::Job> Replayer::take_spare_job() {
   for (LaneOutput& out : job->output) {
     out.estimates.clear();
     out.bytes.clear();
+    out.shared_drops.clear();
   }
   return job;
 }
@@ -315,11 +316,13 @@ void Replayer::run(Job& job, size_t worker_index) {
       lane.event = events;
       lane.host->finish(end_timestamp_);
     }
+    lane.host->take_shared_drops(job.output[k].shared_drops);
     lane.cpu_s += thread_cpu_s() - t0;
   }
 }
 
 void Replayer::merge(Job& job) {
+  count_repeated_drops(job);
   // Every lane's estimates in the order they are written: by the event that caused them, then
   // lane, then as the lane made them (each lane's list is in event order already).
   merge_order_.clear();
@@ -370,6 +373,29 @@ void Replayer::merge(Job& job) {
     if (next < merge_order_.size() && merge_order_[next].event == i) estimates_of(i);
   }
   estimates_of(events);  // the lanes' finish()
+}
+
+void Replayer::count_repeated_drops(const Job& job) {
+  // Every lane takes a shared input, the same one as its ordinal-th, within the same job. What
+  // each lane's estimator dropped of it, per reason the least over the lanes, is the input's own
+  // drop (a broadcast that is bad for every lane alike); the rest, a lane's own tags' (a blink
+  // the broadcast closed, dropped), stays in that lane's count.
+  struct Alike {
+    size_t lanes = 0;
+    DropReasons least;
+  };
+  std::map<std::pair<std::string_view, uint64_t>, Alike> alike;
+  for (const LaneOutput& out : job.output)
+    for (const auto& d : out.shared_drops) {
+      Alike& a = alike[{d.estimator, d.ordinal}];
+      a.least = a.lanes++ == 0 ? d.drops : DropReasons::min(a.least, d.drops);
+    }
+  for (const auto& [key, a] : alike) {
+    if (a.lanes != lanes_.size()) continue;
+    auto it = repeated_drops_.find(key.first);
+    if (it == repeated_drops_.end()) it = repeated_drops_.emplace(key.first, DropReasons{}).first;
+    for (size_t k = 1; k < lanes_.size(); ++k) it->second += a.least;
+  }
 }
 
 void Replayer::finish() {
@@ -462,7 +488,11 @@ std::vector<EstimatorAccount> Replayer::accounts() const {
   for (const auto& [channel, n] : repeated_by_channel_)
     for (auto& a : out)
       if (a.name == lanes_.front().host->producer_of(channel)) a.estimates_out -= n;
-  for (auto& a : out) describe_account(a, !opts_.only.empty(), merger_->has_site());
+  for (auto& a : out) {
+    const auto repeated = repeated_drops_.find(a.name);
+    if (repeated != repeated_drops_.end()) a.drops -= repeated->second;
+    describe_account(a, !opts_.only.empty(), merger_->has_site());
+  }
   for (auto& a : merger_->accounts()) out.push_back(std::move(a));  // ips-zones
   return out;
 }

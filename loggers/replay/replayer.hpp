@@ -96,6 +96,8 @@ class Replayer {
   struct LaneOutput {
     std::vector<Estimate> estimates;
     std::vector<uint8_t> bytes;
+    std::vector<ReplayHost::SharedDrops>
+        shared_drops;  // what its estimators dropped of shared inputs
   };
   struct Job {
     std::vector<Event> events;
@@ -120,6 +122,7 @@ class Replayer {
   void worker(size_t index);
   void run(Job& job, size_t worker_index);
   void merge(Job& job);
+  void count_repeated_drops(const Job& job);  // into repeated_drops_ (the merging thread)
   void stop_threads();  // stops and joins every thread started
   void merging();       // the merging thread: each job, in order, once every worker has run it
   void record_error();  // the current exception, from a worker or the merging thread
@@ -139,6 +142,9 @@ class Replayer {
   // Estimates a later lane repeated byte for byte, written once: in all and per channel.
   int64_t repeated_ = 0;
   std::map<std::string, int64_t> repeated_by_channel_;
+  // Per estimator, the drops that lanes after the first made alike for a shared input (a bad
+  // broadcast): the input's own drop, counted once.
+  std::map<std::string, DropReasons, std::less<>> repeated_drops_;
   double caller_cpu_start_s_ = 0.0, caller_cpu_s_ = 0.0, merging_cpu_s_ = 0.0;
   std::unique_ptr<Job> job_;
 

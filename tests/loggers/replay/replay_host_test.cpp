@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <functional>
 #include <ips/altitude_t.hpp>
+#include <ips/baro_t.hpp>
 #include <ips/ble_aoa_t.hpp>
 #include <ips/clock_t.hpp>
 #include <ips/imu_t.hpp>
@@ -15,6 +16,7 @@
 #include <ips/site_t.hpp>
 #include <ips/step_t.hpp>
 #include <ips/uwb_range_t.hpp>
+#include <ips/uwb_rx_t.hpp>
 #include <ips/zone_event_t.hpp>
 #include <map>
 #include <set>
@@ -405,6 +407,58 @@ TEST(Replayer, EachTagIsEstimatedAsByTheShardOfItsLane) {
   ASSERT_GT(n_shard.at("CLOCK"), 10);
   EXPECT_EQ(n_lanes.at("CLOCK"), n_shard.at("CLOCK"));
   EXPECT_EQ(repeated, (kLanes - 1) * n_shard.at("CLOCK"));
+}
+
+// What serves every tag goes to every lane, and each lane's estimators drop it when it is bad:
+// such a drop is the input's own, made alike by every lane, and counted once, as one host counts
+// it (before: once per lane, so that more were dropped than came in).
+TEST(Replayer, ABadInputThatServesEveryTagIsDroppedOnce) {
+  const int64_t t0 = 1767225600000000;
+  std::vector<Out> bad;
+  for (int k = 0; k < 25; ++k) {
+    const int64_t t = t0 + 1000000 + 200000 * k;
+    uwb_rx_t rx;  // a sync master's broadcast without a counter frequency
+    rx.utime = t;
+    rx.source = "test";
+    rx.anchor_id = "D2";
+    rx.sender_id = "D1";
+    rx.is_sync = true;
+    rx.seq = k;
+    rx.rx_counter = 1000;
+    rx.counter_hz = 0;
+    rx.rx_power_dbm = rx.fp_power_dbm = rx.quality = NAN;
+    std::vector<uint8_t> b(static_cast<size_t>(rx.getEncodedSize()));
+    rx.encode(b.data(), 0, static_cast<int>(b.size()));
+    bad.push_back({"UWB_RX", t, b});
+    baro_t ref;  // a reference station's reading of no pressure
+    ref.utime = t + 1;
+    ref.source = "test";
+    ref.sensor_id = "REF";
+    ref.pressure_pa = -1;
+    ref.temperature_c = ref.humidity_pct = ref.known_height_m = NAN;
+    ref.is_reference = true;
+    b.assign(static_cast<size_t>(ref.getEncodedSize()), 0);
+    ref.encode(b.data(), 0, static_cast<int>(b.size()));
+    bad.push_back({"BARO", t + 1, b});
+  }
+  const auto invalid = [&](const ReplayOptions& ro) {
+    std::map<std::string, int64_t> n;
+    replay(
+        ro, 12, bad, "lab",
+        [&](const Replayer& h) {
+          for (const auto& a : h.accounts()) n[a.name] = a.drops.count(DropReason::kInvalid);
+        },
+        4);
+    return n;
+  };
+  const auto one = invalid({});
+  ReplayOptions ro;
+  ro.lanes = 3;
+  const auto lanes = invalid(ro);
+  for (const char* name : {"uwb_tdoa", "altitude", "fuse"}) {
+    EXPECT_GE(one.at(name), 25) << name;
+    EXPECT_EQ(lanes.at(name), one.at(name)) << name;
+  }
 }
 
 // --tags and --shard with lanes: the dispatcher skips the other tags' messages (counted) and still
