@@ -185,7 +185,8 @@ class ReplayHost {
   // What a hosted estimator dropped while it took a shared input: the `ordinal`-th shared input
   // its stage was given (the same input in every host given the same shared inputs), when the
   // estimator's drops grew. Every lane drops a bad broadcast alike; the Replayer counts such a
-  // drop once.
+  // drop once. Both stages record them, so shared inputs are for a host on one thread (a lane's:
+  // ReplayOptions::threads 1), as the Replayer makes its lanes.
   struct SharedDrops {
     uint64_t ordinal;
     const char* estimator;  // its name, as in accounts()

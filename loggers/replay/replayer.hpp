@@ -96,8 +96,8 @@ class Replayer {
   struct LaneOutput {
     std::vector<Estimate> estimates;
     std::vector<uint8_t> bytes;
-    std::vector<ReplayHost::SharedDrops>
-        shared_drops;  // what its estimators dropped of shared inputs
+    // What its estimators dropped of shared inputs (ReplayHost::take_shared_drops).
+    std::vector<ReplayHost::SharedDrops> shared_drops;
   };
   struct Job {
     std::vector<Event> events;
